@@ -1,0 +1,344 @@
+//! The clap front end: `simulate`, `analyze`, `generate`, `bench`, `node`.
+//! Exit status 0 on success, 2 on bad input (arguments, model files), 1 when a
+//! run fails part-way (what was computed until then is still written).
+
+use crate::model::{self, generate};
+use crate::solver::{mobility, Options, Simulator, SolverKind};
+use clap::{Args, Parser, Subcommand, ValueEnum};
+use serde::Serialize;
+use std::io::Write;
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+mod simulate;
+
+#[derive(Parser, Debug)]
+#[command(
+    name = "truss-deploy",
+    version,
+    about = "Deployment dynamics of space deployable truss structures"
+)]
+struct Cli {
+    #[command(subcommand)]
+    cmd: Cmd,
+}
+
+#[derive(Subcommand, Debug)]
+enum Cmd {
+    /// Run offline to full deployment (or --until); summary and lock table on stdout.
+    Simulate(simulate::SimulateArgs),
+    /// Rank, mechanisms, states of self-stress and redundant rows, before and after all locks.
+    Analyze(AnalyzeArgs),
+    /// Write a parametric model file.
+    Generate(GenerateArgs),
+    /// Time the stepping loop (no I/O).
+    Bench(BenchArgs),
+}
+
+#[derive(Args, Debug)]
+struct AnalyzeArgs {
+    model: PathBuf,
+    #[arg(long)]
+    json: Option<PathBuf>,
+}
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
+enum Kind {
+    Mast,
+}
+
+#[derive(Args, Debug)]
+struct GenerateArgs {
+    /// What to generate: `mast` (pantograph mast of any number of units).
+    kind: Kind,
+    #[arg(short = 'o', long = "output")]
+    output: PathBuf,
+    /// mast: number of scissor units (1 to 500).
+    #[arg(long, default_value_t = generate::MastParams::default().units)]
+    units: usize,
+    /// mast: scissor rod length (m).
+    #[arg(long)]
+    rod_length_m: Option<f64>,
+    /// Lumped mass per joint (kg).
+    #[arg(long)]
+    joint_mass_kg: Option<f64>,
+    /// Constant motor tension of each drive cable (N).
+    #[arg(long)]
+    tension_n: Option<f64>,
+    /// Cable-pulley friction coefficient.
+    #[arg(long)]
+    mu: Option<f64>,
+    /// Viscous damping per joint (N s/m).
+    #[arg(long)]
+    damping: Option<f64>,
+}
+
+#[derive(Args, Debug)]
+struct BenchArgs {
+    model: PathBuf,
+    #[arg(long, value_enum, default_value_t = SolverArg::Dense)]
+    solver: SolverArg,
+    /// Steps to time.
+    #[arg(long, default_value_t = 200)]
+    steps: usize,
+    #[arg(long)]
+    json: Option<PathBuf>,
+}
+
+#[derive(Clone, Copy, Debug, ValueEnum, PartialEq, Eq)]
+pub enum SolverArg {
+    Dense,
+}
+
+impl From<SolverArg> for SolverKind {
+    fn from(s: SolverArg) -> Self {
+        match s {
+            SolverArg::Dense => SolverKind::Dense,
+        }
+    }
+}
+
+/// A failure with its exit status.
+pub struct Failure {
+    pub code: i32,
+    pub message: String,
+}
+
+impl Failure {
+    pub fn input(message: impl Into<String>) -> Self {
+        Failure {
+            code: 2,
+            message: message.into(),
+        }
+    }
+    pub fn run(message: impl Into<String>) -> Self {
+        Failure {
+            code: 1,
+            message: message.into(),
+        }
+    }
+}
+
+pub fn main() -> i32 {
+    let cli = match Cli::try_parse() {
+        Ok(c) => c,
+        Err(e) => {
+            let _ = e.print();
+            return if e.use_stderr() { 2 } else { 0 };
+        }
+    };
+    let result = match cli.cmd {
+        Cmd::Simulate(a) => simulate::run(a),
+        Cmd::Analyze(a) => analyze(a),
+        Cmd::Generate(a) => generate_cmd(a),
+        Cmd::Bench(a) => bench(a),
+    };
+    match result {
+        Ok(()) => 0,
+        Err(f) => {
+            eprintln!("error: {}", f.message);
+            f.code
+        }
+    }
+}
+
+pub fn load(path: &Path) -> Result<model::LoadedModel, Failure> {
+    model::load(path).map_err(|e| Failure::input(e.to_string()))
+}
+
+pub fn make_simulator(path: &Path, solver: SolverKind) -> Result<Simulator, Failure> {
+    let m = load(path)?;
+    Simulator::new(
+        m.model,
+        Options {
+            solver,
+            ..Options::default()
+        },
+    )
+    .map_err(|e| Failure::input(format!("{}: {e}", path.display())))
+}
+
+pub fn write_json<T: Serialize>(path: &Path, value: &T) -> Result<(), Failure> {
+    let text = serde_json::to_string_pretty(value).expect("summary serializes");
+    std::fs::write(path, text + "\n")
+        .map_err(|e| Failure::input(format!("cannot write {}: {e}", path.display())))
+}
+
+#[derive(Serialize)]
+struct AnalyzeJson {
+    model: String,
+    coordinates: usize,
+    rows: usize,
+    rank: usize,
+    mechanisms: usize,
+    self_stress: usize,
+    rows_locked: usize,
+    rank_locked: usize,
+    mechanisms_locked: usize,
+    self_stress_locked: usize,
+    /// Where the locked analysis was made: "reference" or "initial" geometry.
+    locked_geometry: &'static str,
+    initial: mobility::Mobility,
+    locked: mobility::Mobility,
+}
+
+fn analyze(a: AnalyzeArgs) -> Result<(), Failure> {
+    let loaded = load(&a.model)?;
+    let m = &loaded.model;
+    let free: Vec<bool> = m
+        .elements
+        .iter()
+        .map(|e| e.lock_gap(&m.x0).is_some_and(|g| g.abs() <= 1e-9))
+        .collect();
+    let all: Vec<bool> = m
+        .elements
+        .iter()
+        .map(|e| e.lock_gap(&m.x0).is_some())
+        .collect();
+    let before = mobility::analyze(m, &m.x0, &free);
+    let (geometry, xl) = match &m.reference {
+        Some(r) => ("reference", r.as_slice()),
+        None => ("initial", m.x0.as_slice()),
+    };
+    let after = mobility::analyze(m, xl, &all);
+    println!(
+        "model {} ({} joints, {} coordinates)",
+        m.name,
+        m.n_joints(),
+        before.coordinates
+    );
+    println!(
+        "{:<22} {:>8} {:>8} {:>11} {:>12}",
+        "", "rows", "rank", "mechanisms", "self-stress"
+    );
+    println!(
+        "{:<22} {:>8} {:>8} {:>11} {:>12}",
+        "before locks", before.rows, before.rank, before.mechanisms, before.self_stress
+    );
+    println!(
+        "{:<22} {:>8} {:>8} {:>11} {:>12}",
+        format!("all locked ({geometry})"),
+        after.rows,
+        after.rank,
+        after.mechanisms,
+        after.self_stress
+    );
+    println!("rows per element type (before locks):");
+    for p in &before.per_element {
+        println!(
+            "  {:<18} {:>5} elements {:>6} rows",
+            p.kind, p.elements, p.rows
+        );
+    }
+    if !before.redundant_rows.is_empty() {
+        let shown: Vec<_> = before.redundant_rows.iter().take(12).cloned().collect();
+        println!(
+            "redundant rows (before locks): {}{}",
+            shown.join(", "),
+            if before.redundant_rows.len() > 12 {
+                format!(", ... ({} in all)", before.redundant_rows.len())
+            } else {
+                String::new()
+            }
+        );
+    }
+    if let Some(j) = &a.json {
+        write_json(
+            j,
+            &AnalyzeJson {
+                model: m.name.clone(),
+                coordinates: before.coordinates,
+                rows: before.rows,
+                rank: before.rank,
+                mechanisms: before.mechanisms,
+                self_stress: before.self_stress,
+                rows_locked: after.rows,
+                rank_locked: after.rank,
+                mechanisms_locked: after.mechanisms,
+                self_stress_locked: after.self_stress,
+                locked_geometry: geometry,
+                initial: before.clone(),
+                locked: after.clone(),
+            },
+        )?;
+    }
+    Ok(())
+}
+
+fn generate_cmd(a: GenerateArgs) -> Result<(), Failure> {
+    let doc = match a.kind {
+        Kind::Mast => {
+            let d = generate::MastParams::default();
+            let p = generate::MastParams {
+                units: a.units,
+                rod_length_m: a.rod_length_m.unwrap_or(d.rod_length_m),
+                joint_mass_kg: a.joint_mass_kg.unwrap_or(d.joint_mass_kg),
+                tension_n: a.tension_n.unwrap_or(d.tension_n),
+                max_tension_n: d.max_tension_n.max(a.tension_n.unwrap_or(0.0)),
+                friction_mu: a.mu.unwrap_or(d.friction_mu),
+                damping_n_s_per_m: a.damping.unwrap_or(d.damping_n_s_per_m),
+                ..d
+            };
+            generate::mast(&p).map_err(Failure::input)?
+        }
+    };
+    let text = doc.to_toml();
+    // Written models must load: check before writing.
+    model::parse(&text, &a.output.display().to_string())
+        .map_err(|e| Failure::run(format!("generated model is invalid: {e}")))?;
+    std::fs::write(&a.output, text)
+        .map_err(|e| Failure::input(format!("cannot write {}: {e}", a.output.display())))?;
+    println!(
+        "wrote {} ({} joints, {} elements)",
+        a.output.display(),
+        doc.joints.len(),
+        doc.elements.len()
+    );
+    Ok(())
+}
+
+#[derive(Serialize)]
+struct BenchJson {
+    model: String,
+    solver: String,
+    steps: usize,
+    us_per_step: f64,
+    real_time_factor: f64,
+    dt_s: f64,
+    factorizations_per_step: f64,
+}
+
+fn bench(a: BenchArgs) -> Result<(), Failure> {
+    let mut sim = make_simulator(&a.model, a.solver.into())?;
+    let dt = sim.model().dt_s;
+    let mut times = Vec::with_capacity(a.steps);
+    let f0 = sim.factorizations();
+    for _ in 0..a.steps {
+        if sim.state().deployed {
+            sim.reset().map_err(|e| Failure::run(e.to_string()))?;
+        }
+        let t0 = Instant::now();
+        sim.step(dt).map_err(|e| Failure::run(e.to_string()))?;
+        times.push(t0.elapsed().as_secs_f64());
+    }
+    times.sort_by(f64::total_cmp);
+    let median = times[times.len() / 2];
+    let out = BenchJson {
+        model: sim.model().name.clone(),
+        solver: format!("{:?}", a.solver).to_lowercase(),
+        steps: a.steps,
+        us_per_step: median * 1e6,
+        real_time_factor: dt / median,
+        dt_s: dt,
+        factorizations_per_step: (sim.factorizations() - f0) as f64 / a.steps as f64,
+    };
+    println!(
+        "{}: solver {}, {} steps, median {:.1} us/step, real-time factor {:.0} at dt {} s",
+        out.model, out.solver, out.steps, out.us_per_step, out.real_time_factor, dt
+    );
+    if let Some(j) = &a.json {
+        write_json(j, &out)?;
+    }
+    let _ = std::io::stdout().flush();
+    Ok(())
+}

@@ -1,0 +1,9 @@
+//! truss-deploy: deployment dynamics of space deployable truss structures.
+//!
+//! [`solver`] is the pure simulator core (Xu Yan et al.'s macroelement method with
+//! exact latch events and drift-free projection); [`model`] reads, validates and
+//! generates model files.
+
+pub mod cli;
+pub mod model;
+pub mod solver;

@@ -1,0 +1,531 @@
+//! The TOML model file: reading with serde, validation with file and line in
+//! every error, conversion to the solver's [`Model`], and writing.
+//!
+//! ```toml
+//! [model]
+//! name = "pantograph_mast"
+//! description = "..."
+//! notes = ["each modelling choice, one line each"]
+//!
+//! [settings]                 # all optional
+//! dt_s = 0.05
+//! end_time_s = 120.0
+//! gravity_m_s2 = [0.0, 0.0, 0.0]
+//! damping_n_s_per_m = 0.0    # viscous, on each joint's velocity
+//!
+//! [[joint]]
+//! name = "L0"
+//! position_m = [0.0, 0.0, 0.0]
+//! mass_kg = 0.15
+//! reference_m = [0.0, 0.0, 0.0]   # deployed position (optional, all joints or none)
+//!
+//! [[element]]
+//! type = "scissor"           # see `truss-deploy analyze --help` / elements::REGISTRY
+//! name = "U1"
+//! joints = ["L0", "R1", "R0", "L1"]
+//! ratio = 1.0                # element parameters
+//!
+//! [[cable]]
+//! name = "drive"
+//! path = ["L0", "R0", "L1"]  # motor end first, anchored end last, pulleys between
+//! tension_n = 1.0
+//! max_tension_n = 20.0
+//! friction_mu = 0.005
+//! line_density_kg_per_m = 0.0
+//! pulley_radius_m = 0.01
+//! slip_speed_m_s = 1e-4
+//! ```
+
+use crate::solver::elements::{ElementSpec, Param};
+use crate::solver::{Cable, Joint, Model, ModelParts, SolverError};
+use serde::Deserialize;
+use std::collections::BTreeMap;
+use std::fmt;
+use std::path::Path;
+use toml::Spanned;
+
+/// A problem with a model file: where, what, and how to fix it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ModelFileError {
+    pub file: String,
+    pub line: Option<usize>,
+    pub message: String,
+}
+
+impl fmt::Display for ModelFileError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.line {
+            Some(l) => write!(f, "{}:{}: {}", self.file, l, self.message),
+            None => write!(f, "{}: {}", self.file, self.message),
+        }
+    }
+}
+impl std::error::Error for ModelFileError {}
+
+#[derive(Deserialize, Debug, Default)]
+#[serde(deny_unknown_fields)]
+struct Header {
+    name: String,
+    #[serde(default)]
+    description: String,
+    #[serde(default)]
+    notes: Vec<String>,
+}
+
+#[derive(Deserialize, Debug)]
+#[serde(deny_unknown_fields)]
+struct Settings {
+    #[serde(default = "default_dt")]
+    dt_s: f64,
+    #[serde(default = "default_end")]
+    end_time_s: f64,
+    #[serde(default)]
+    gravity_m_s2: [f64; 3],
+    #[serde(default)]
+    damping_n_s_per_m: f64,
+}
+fn default_dt() -> f64 {
+    0.05
+}
+fn default_end() -> f64 {
+    600.0
+}
+impl Default for Settings {
+    fn default() -> Self {
+        Settings {
+            dt_s: default_dt(),
+            end_time_s: default_end(),
+            gravity_m_s2: [0.0; 3],
+            damping_n_s_per_m: 0.0,
+        }
+    }
+}
+
+#[derive(Deserialize, Debug)]
+#[serde(deny_unknown_fields)]
+struct JointSpec {
+    name: Spanned<String>,
+    position_m: [f64; 3],
+    mass_kg: f64,
+    #[serde(default)]
+    reference_m: Option<[f64; 3]>,
+}
+
+#[derive(Deserialize, Debug)]
+struct ElementEntry {
+    #[serde(rename = "type")]
+    kind: Spanned<String>,
+    name: Spanned<String>,
+    joints: Vec<Spanned<String>>,
+    #[serde(flatten)]
+    params: BTreeMap<String, toml::Value>,
+}
+
+#[derive(Deserialize, Debug)]
+#[serde(deny_unknown_fields)]
+struct CableSpec {
+    name: Spanned<String>,
+    path: Spanned<Vec<Spanned<String>>>,
+    tension_n: f64,
+    max_tension_n: Option<f64>,
+    #[serde(default)]
+    friction_mu: f64,
+    #[serde(default)]
+    line_density_kg_per_m: f64,
+    #[serde(default = "default_radius")]
+    pulley_radius_m: f64,
+    #[serde(default = "default_slip")]
+    slip_speed_m_s: f64,
+}
+fn default_radius() -> f64 {
+    0.01
+}
+fn default_slip() -> f64 {
+    1e-4
+}
+
+#[derive(Deserialize, Debug)]
+#[serde(deny_unknown_fields)]
+struct FileSpec {
+    model: Header,
+    #[serde(default)]
+    settings: Settings,
+    #[serde(default, rename = "joint")]
+    joints: Vec<Spanned<JointSpec>>,
+    #[serde(default, rename = "element")]
+    elements: Vec<Spanned<ElementEntry>>,
+    #[serde(default, rename = "cable")]
+    cables: Vec<Spanned<CableSpec>>,
+}
+
+/// Loaded model plus the descriptive parts of the file.
+pub struct LoadedModel {
+    pub model: Model,
+    pub description: String,
+    pub notes: Vec<String>,
+}
+
+fn line_of(text: &str, offset: usize) -> usize {
+    text[..offset.min(text.len())]
+        .bytes()
+        .filter(|b| *b == b'\n')
+        .count()
+        + 1
+}
+
+/// Reads and validates a model file.
+pub fn load(path: &Path) -> Result<LoadedModel, ModelFileError> {
+    let file = path.display().to_string();
+    let text = std::fs::read_to_string(path).map_err(|e| ModelFileError {
+        file: file.clone(),
+        line: None,
+        message: format!("cannot read the model file ({e}); check the path, or write one with `truss-deploy generate`"),
+    })?;
+    parse(&text, &file)
+}
+
+/// Parses and validates model text; `file` names it in errors.
+pub fn parse(text: &str, file: &str) -> Result<LoadedModel, ModelFileError> {
+    let err = |span: Option<std::ops::Range<usize>>, message: String| ModelFileError {
+        file: file.to_string(),
+        line: span.map(|s| line_of(text, s.start)),
+        message,
+    };
+    let spec: FileSpec = toml::from_str(text).map_err(|e| {
+        let msg = e.message().trim().to_string();
+        err(
+            e.span(),
+            format!("{msg}; see the format in the README (section Model files)"),
+        )
+    })?;
+    let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
+    let s = &spec.settings;
+    if !finite(&[s.dt_s, s.end_time_s, s.damping_n_s_per_m]) || !finite(&s.gravity_m_s2) {
+        return Err(err(
+            None,
+            "[settings] holds a NaN or infinite number; give finite values".into(),
+        ));
+    }
+
+    // Joints: unique names, finite numbers, positive masses.
+    let mut index: BTreeMap<&str, usize> = BTreeMap::new();
+    let mut joints = Vec::new();
+    let mut x0 = Vec::new();
+    let mut reference = Vec::new();
+    let mut with_reference = 0;
+    if spec.joints.is_empty() {
+        return Err(err(
+            None,
+            "the model has no [[joint]] entries; a truss needs joints".into(),
+        ));
+    }
+    for js in &spec.joints {
+        let j = js.get_ref();
+        let name = j.name.get_ref().as_str();
+        if name.is_empty() {
+            return Err(err(
+                Some(j.name.span()),
+                "a joint has an empty name; give every joint a unique name".into(),
+            ));
+        }
+        if index.insert(name, joints.len()).is_some() {
+            return Err(err(
+                Some(j.name.span()),
+                format!("duplicate joint name `{name}`; joint names must be unique"),
+            ));
+        }
+        if !finite(&j.position_m)
+            || !j.mass_kg.is_finite()
+            || j.reference_m.is_some_and(|r| !finite(&r))
+        {
+            return Err(err(
+                Some(js.span()),
+                format!(
+                    "joint `{name}` has a NaN or infinite number; give finite coordinates and mass"
+                ),
+            ));
+        }
+        if j.mass_kg <= 0.0 {
+            return Err(err(
+                Some(js.span()),
+                format!(
+                    "joint `{name}` has mass_kg = {}; every joint needs a positive lumped mass",
+                    j.mass_kg
+                ),
+            ));
+        }
+        joints.push(Joint {
+            name: name.to_string(),
+            mass_kg: j.mass_kg,
+        });
+        x0.extend(j.position_m);
+        if let Some(r) = j.reference_m {
+            with_reference += 1;
+            reference.extend(r);
+        }
+    }
+    if with_reference != 0 && with_reference != joints.len() {
+        return Err(err(None, format!("{with_reference} of {} joints have reference_m; give it for every joint or for none", joints.len())));
+    }
+    let lookup = |n: &Spanned<String>, whose: &str| -> Result<usize, ModelFileError> {
+        index.get(n.get_ref().as_str()).copied().ok_or_else(|| {
+            err(Some(n.span()), format!("{whose} refers to joint `{}`, which does not exist; declare it in a [[joint]] entry or fix the name", n.get_ref()))
+        })
+    };
+
+    // Elements.
+    let mut elements = Vec::new();
+    let mut element_spans = Vec::new();
+    let mut element_names: BTreeMap<String, ()> = BTreeMap::new();
+    for es in &spec.elements {
+        let e = es.get_ref();
+        let whose = format!("element `{}`", e.name.get_ref());
+        if element_names.insert(e.name.get_ref().clone(), ()).is_some() {
+            return Err(err(
+                Some(e.name.span()),
+                format!(
+                    "duplicate element name `{}`; element names must be unique",
+                    e.name.get_ref()
+                ),
+            ));
+        }
+        let mut params = BTreeMap::new();
+        for (k, v) in &e.params {
+            let p = match v {
+                toml::Value::Float(f) if f.is_finite() => Param::Num(*f),
+                toml::Value::Float(f) => {
+                    return Err(err(
+                        Some(es.span()),
+                        format!("{whose}: parameter `{k}` is {f}; give a finite number"),
+                    ));
+                }
+                toml::Value::Integer(i) => Param::Num(*i as f64),
+                toml::Value::String(s) => Param::Text(s.clone()),
+                other => {
+                    return Err(err(
+                        Some(es.span()),
+                        format!("{whose}: parameter `{k}` = {other} must be a number or a string"),
+                    ));
+                }
+            };
+            params.insert(k.clone(), p);
+        }
+        let idx = e
+            .joints
+            .iter()
+            .map(|j| lookup(j, &whose))
+            .collect::<Result<Vec<_>, _>>()?;
+        elements.push(ElementSpec {
+            kind: e.kind.get_ref().clone(),
+            name: e.name.get_ref().clone(),
+            joints: idx,
+            params,
+        });
+        element_spans.push(es.span());
+    }
+
+    // Cables.
+    let mut cables = Vec::new();
+    let mut cable_spans = Vec::new();
+    for cs in &spec.cables {
+        let c = cs.get_ref();
+        let whose = format!("cable `{}`", c.name.get_ref());
+        if c.path.get_ref().len() < 2 {
+            return Err(err(
+                Some(c.path.span()),
+                format!("{whose} has a path of {} joint(s); list at least the motor-end joint and the anchored end", c.path.get_ref().len()),
+            ));
+        }
+        let nums = [
+            c.tension_n,
+            c.max_tension_n.unwrap_or(0.0),
+            c.friction_mu,
+            c.line_density_kg_per_m,
+            c.pulley_radius_m,
+            c.slip_speed_m_s,
+        ];
+        if !finite(&nums) {
+            return Err(err(
+                Some(cs.span()),
+                format!("{whose} has a NaN or infinite number; give finite values"),
+            ));
+        }
+        let path = c
+            .path
+            .get_ref()
+            .iter()
+            .map(|j| lookup(j, &whose))
+            .collect::<Result<Vec<_>, _>>()?;
+        cables.push(Cable {
+            name: c.name.get_ref().clone(),
+            path,
+            tension_n: c.tension_n,
+            max_tension_n: c.max_tension_n.unwrap_or(c.tension_n.max(0.0) * 4.0),
+            friction_mu: c.friction_mu,
+            line_density_kg_per_m: c.line_density_kg_per_m,
+            pulley_radius_m: c.pulley_radius_m,
+            slip_speed_m_s: c.slip_speed_m_s,
+        });
+        cable_spans.push(cs.span());
+    }
+
+    let n_elements = elements.len();
+    let parts = ModelParts {
+        name: spec.model.name.clone(),
+        joints,
+        x0,
+        reference: (with_reference > 0).then_some(reference),
+        elements,
+        cables,
+        gravity_m_s2: s.gravity_m_s2,
+        damping_n_s_per_m: s.damping_n_s_per_m,
+        dt_s: s.dt_s,
+        end_time_s: s.end_time_s,
+    };
+    let model = Model::build(parts).map_err(|(i, e)| {
+        let msg = e.to_string();
+        // Model::build reports element errors by element index, cable errors by cable index.
+        let span = if msg.starts_with("element") {
+            element_spans.get(i).cloned()
+        } else if msg.starts_with("cable") {
+            cable_spans.get(i).cloned()
+        } else {
+            None
+        };
+        err(span, msg)
+    })?;
+    if let Some((e, row, residual)) = model.initial_violation(1e-6) {
+        let el = &model.elements[e];
+        let span = element_spans.get(e).cloned();
+        let e = SolverError::InitialViolation {
+            element: el.name().to_string(),
+            kind: el.kind(),
+            row,
+            residual_m: residual,
+        };
+        return Err(err(span, e.to_string()));
+    }
+    debug_assert_eq!(n_elements, model.elements.len());
+    Ok(LoadedModel {
+        model,
+        description: spec.model.description,
+        notes: spec.model.notes,
+    })
+}
+
+/// A model as written by the generators, serialized as a model file.
+#[derive(Clone, Debug, Default)]
+pub struct ModelDoc {
+    pub name: String,
+    pub description: String,
+    pub notes: Vec<String>,
+    pub dt_s: f64,
+    pub end_time_s: f64,
+    pub damping_n_s_per_m: f64,
+    pub joints: Vec<JointDoc>,
+    pub elements: Vec<ElementDoc>,
+    pub cables: Vec<CableDoc>,
+}
+
+#[derive(Clone, Debug)]
+pub struct JointDoc {
+    pub name: String,
+    pub position_m: [f64; 3],
+    pub mass_kg: f64,
+    pub reference_m: Option<[f64; 3]>,
+}
+
+#[derive(Clone, Debug)]
+pub struct ElementDoc {
+    pub kind: String,
+    pub name: String,
+    pub joints: Vec<String>,
+    pub params: Vec<(String, Param)>,
+}
+
+#[derive(Clone, Debug)]
+pub struct CableDoc {
+    pub name: String,
+    pub path: Vec<String>,
+    pub tension_n: f64,
+    pub max_tension_n: f64,
+    pub friction_mu: f64,
+    pub pulley_radius_m: f64,
+}
+
+fn q(s: &str) -> String {
+    toml::Value::String(s.to_string()).to_string()
+}
+fn num(v: f64) -> String {
+    // Rust's shortest round-trip form, always with a decimal point or exponent
+    let s = format!("{v:?}");
+    s
+}
+fn arr3(v: [f64; 3]) -> String {
+    format!("[{}, {}, {}]", num(v[0]), num(v[1]), num(v[2]))
+}
+fn names(v: &[String]) -> String {
+    format!(
+        "[{}]",
+        v.iter().map(|s| q(s)).collect::<Vec<_>>().join(", ")
+    )
+}
+
+impl ModelDoc {
+    pub fn to_toml(&self) -> String {
+        let mut o = String::new();
+        o += "# Written by `truss-deploy generate`; every modelling choice is listed in `notes`.\n";
+        o += &format!(
+            "[model]\nname = {}\ndescription = {}\nnotes = [\n",
+            q(&self.name),
+            q(&self.description)
+        );
+        for n in &self.notes {
+            o += &format!("  {},\n", q(n));
+        }
+        o += "]\n\n[settings]\n";
+        o += &format!(
+            "dt_s = {}\nend_time_s = {}\ngravity_m_s2 = [0.0, 0.0, 0.0]\ndamping_n_s_per_m = {}\n",
+            num(self.dt_s),
+            num(self.end_time_s),
+            num(self.damping_n_s_per_m)
+        );
+        for j in &self.joints {
+            o += &format!(
+                "\n[[joint]]\nname = {}\nposition_m = {}\nmass_kg = {}\n",
+                q(&j.name),
+                arr3(j.position_m),
+                num(j.mass_kg)
+            );
+            if let Some(r) = j.reference_m {
+                o += &format!("reference_m = {}\n", arr3(r));
+            }
+        }
+        for e in &self.elements {
+            o += &format!(
+                "\n[[element]]\ntype = {}\nname = {}\njoints = {}\n",
+                q(&e.kind),
+                q(&e.name),
+                names(&e.joints)
+            );
+            for (k, p) in &e.params {
+                match p {
+                    Param::Num(v) => o += &format!("{k} = {}\n", num(*v)),
+                    Param::Text(s) => o += &format!("{k} = {}\n", q(s)),
+                }
+            }
+        }
+        for c in &self.cables {
+            o += &format!(
+                "\n[[cable]]\nname = {}\npath = {}\ntension_n = {}\nmax_tension_n = {}\nfriction_mu = {}\npulley_radius_m = {}\n",
+                q(&c.name),
+                names(&c.path),
+                num(c.tension_n),
+                num(c.max_tension_n),
+                num(c.friction_mu),
+                num(c.pulley_radius_m)
+            );
+        }
+        o
+    }
+}

@@ -1,0 +1,142 @@
+//! Active drive cables: tension along the cable from the capstan law with the
+//! current wrap angles, and the generalized forces the cable segments apply.
+//!
+//! Segment j runs from path[j] to path[j+1]; segment 0 leaves the motor drum at
+//! path[0]; the pulley at path[k] (0 < k < last) sits between segments k-1 and k.
+//!
+//! Wrap angle at pulley k: theta_k = pi - 2 beta_k, with 2 beta_k the angle between
+//! the two segments meeting there (a straight run wraps nothing).
+//!
+//! Sliding: the cable passes over pulley k toward the motor at
+//! s_k = -d/dt sum_{j >= k} l_j (the far part shortens while the motor reels in).
+//!
+//! Tension across a pulley, the corrected Eq. 17 with ds = r dtheta and friction
+//! opposing the sliding: dT/dtheta = m T + rho (r s'' - m s^2), m = mu * sigma,
+//! sigma = clamp(s / s_slip, -1, 1) the friction direction. Integrated over the wrap
+//! from the far side (T_k) to the motor side (T_{k-1}):
+//!     T_k = T_{k-1} e^{-m theta} - rho (r s'' - m s^2) theta phi(m theta),
+//!     phi(z) = (1 - e^{-z}) / z.
+//! With rho = 0 this is the capstan law T_{k-1} / T_k = e^{mu theta} while reeling in,
+//! inverted when the cable slides the other way, and continuous through s = 0.
+
+use super::elements::at;
+use super::model::Cable;
+use super::vec3::Vec3;
+
+#[derive(Clone, Debug, Default)]
+pub struct CableEval {
+    pub segment_length_m: Vec<f64>,
+    pub segment_tension_n: Vec<f64>,
+    /// Per pulley (path[1..last]).
+    pub wrap_rad: Vec<f64>,
+    pub sliding_m_s: Vec<f64>,
+    /// Sum of segment lengths (m).
+    pub length_m: f64,
+}
+
+impl CableEval {
+    pub fn for_cable(c: &Cable) -> Self {
+        let segs = c.path.len() - 1;
+        let pulleys = segs.saturating_sub(1);
+        CableEval {
+            segment_length_m: vec![0.0; segs],
+            segment_tension_n: vec![0.0; segs],
+            wrap_rad: vec![0.0; pulleys],
+            sliding_m_s: vec![0.0; pulleys],
+            length_m: 0.0,
+        }
+    }
+}
+
+/// phi(z) = (1 - e^{-z}) / z, continuous at 0.
+fn phi(z: f64) -> f64 {
+    if z.abs() < 1e-12 {
+        1.0 - z / 2.0
+    } else {
+        -f64::exp_m1(-z) / z
+    }
+}
+
+/// Tension on the far side of a pulley from the motor-side tension `t_motor_side`
+/// (see the module doc), never negative (a cable cannot push).
+pub fn across_pulley(
+    c: &Cable,
+    t_motor_side: f64,
+    wrap: f64,
+    sliding: f64,
+    sliding_accel: f64,
+) -> f64 {
+    let sigma = (sliding / c.slip_speed_m_s).clamp(-1.0, 1.0);
+    let m = c.friction_mu * sigma;
+    let inertia =
+        c.line_density_kg_per_m * (c.pulley_radius_m * sliding_accel - m * sliding * sliding);
+    (t_motor_side * (-m * wrap).exp() - inertia * wrap * phi(m * wrap)).max(0.0)
+}
+
+/// Evaluates lengths, wrap angles, sliding speeds and tensions. `a` (joint
+/// accelerations) feeds the cable-inertia term; pass `None` when rho = 0 or unknown.
+pub fn evaluate(
+    c: &Cable,
+    motor_tension_n: f64,
+    x: &[f64],
+    v: &[f64],
+    a: Option<&[f64]>,
+    out: &mut CableEval,
+) {
+    let segs = c.path.len() - 1;
+    out.length_m = 0.0;
+    for j in 0..segs {
+        out.segment_length_m[j] = (at(x, c.path[j + 1]) - at(x, c.path[j])).norm();
+        out.length_m += out.segment_length_m[j];
+    }
+    // Sliding speeds, accumulated from the anchored end toward the motor.
+    let mut rate_far = 0.0;
+    for j in (1..segs).rev() {
+        let (p, q) = (c.path[j], c.path[j + 1]);
+        let d = at(x, q) - at(x, p);
+        rate_far += d.dot(&(at(v, q) - at(v, p))) / d.norm();
+        out.sliding_m_s[j - 1] = -rate_far; // the pulley at path[j]
+    }
+    let mut t = motor_tension_n.max(0.0);
+    out.segment_tension_n[0] = t;
+    for k in 1..segs {
+        let u1: Vec3 = at(x, c.path[k - 1]) - at(x, c.path[k]);
+        let u2: Vec3 = at(x, c.path[k + 1]) - at(x, c.path[k]);
+        let cos2b = (u1.dot(&u2) / (u1.norm() * u2.norm())).clamp(-1.0, 1.0);
+        let wrap = std::f64::consts::PI - cos2b.acos();
+        out.wrap_rad[k - 1] = wrap;
+        let s_accel = match a {
+            Some(a) if c.line_density_kg_per_m > 0.0 => sliding_accel(c, k, x, v, a),
+            _ => 0.0,
+        };
+        t = across_pulley(c, t, wrap, out.sliding_m_s[k - 1], s_accel);
+        out.segment_tension_n[k] = t;
+    }
+}
+
+/// s''_k = -sum_{j >= k} l''_j, with l'' = e.(a_q - a_p) + (|w|^2 - (e.w)^2)/l.
+fn sliding_accel(c: &Cable, k: usize, x: &[f64], v: &[f64], a: &[f64]) -> f64 {
+    let mut acc = 0.0;
+    for j in k..c.path.len() - 1 {
+        let (p, q) = (c.path[j], c.path[j + 1]);
+        let d = at(x, q) - at(x, p);
+        let l = d.norm();
+        let e = d / l;
+        let w = at(v, q) - at(v, p);
+        acc += e.dot(&(at(a, q) - at(a, p))) + (w.norm_squared() - e.dot(&w).powi(2)) / l;
+    }
+    -acc
+}
+
+/// Adds the segment forces to Q: segment j pulls its two end joints toward each other.
+pub fn add_forces(c: &Cable, eval: &CableEval, x: &[f64], q: &mut [f64]) {
+    for j in 0..c.path.len() - 1 {
+        let (p, r) = (c.path[j], c.path[j + 1]);
+        let d = at(x, r) - at(x, p);
+        let f = d * (eval.segment_tension_n[j] / d.norm());
+        for k in 0..3 {
+            q[3 * p + k] += f[k];
+            q[3 * r + k] -= f[k];
+        }
+    }
+}

@@ -1,0 +1,65 @@
+//! Bar: a member of constant length between joints a and b.
+//! Phi = |X_b - X_a| - L, one row. L is the initial distance unless `length_m` is given.
+
+use super::kernels::Distance;
+use super::{at, Constraint, ElementSpec};
+
+#[derive(Debug)]
+pub struct Bar {
+    name: String,
+    joints: [usize; 2],
+    pub length_m: f64,
+}
+
+impl Bar {
+    pub fn new(name: &str, a: usize, b: usize, length_m: f64) -> Self {
+        Bar {
+            name: name.to_string(),
+            joints: [a, b],
+            length_m,
+        }
+    }
+    fn row(&self) -> Distance {
+        Distance {
+            a: self.joints[0],
+            b: self.joints[1],
+            length_m: self.length_m,
+        }
+    }
+}
+
+pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, String> {
+    spec.expect_joints(2, "its two end joints")?;
+    spec.only_params(&["length_m"])?;
+    let (a, b) = (spec.joints[0], spec.joints[1]);
+    let l0 = (at(x0, b) - at(x0, a)).norm();
+    let length_m = spec.num("length_m")?.unwrap_or(l0);
+    if length_m <= 1e-9 || l0 <= 1e-9 {
+        return Err(format!("zero-length member (its joints are {l0:.3e} m apart); move one end joint or remove the member"));
+    }
+    Ok(Box::new(Bar::new(&spec.name, a, b, length_m)))
+}
+
+impl Constraint for Bar {
+    fn kind(&self) -> &'static str {
+        "bar"
+    }
+    fn name(&self) -> &str {
+        &self.name
+    }
+    fn joints(&self) -> &[usize] {
+        &self.joints
+    }
+    fn rows(&self, _locked: bool) -> usize {
+        1
+    }
+    fn residual(&self, x: &[f64], out: &mut [f64]) {
+        out[0] = self.row().residual(x);
+    }
+    fn jacobian(&self, x: &[f64], out: &mut [f64]) {
+        self.row().jacobian(x, out, 0, 3);
+    }
+    fn adot_xdot(&self, x: &[f64], v: &[f64], out: &mut [f64]) {
+        out[0] = self.row().adot_xdot(x, v);
+    }
+}

@@ -1,0 +1,252 @@
+//! Constraint macroelements.
+//!
+//! Every element is a set of scleronomic constraint equations Phi_e(X) = 0 on the
+//! Cartesian coordinates of a few joints. An element supplies three things:
+//! the residual Phi_e, its Jacobian rows A_e = dPhi_e/dX restricted to its own
+//! joints, and the convective term (dA_e/dt) Xdot = Xdot^T (d2 Phi_e / dX2) Xdot
+//! that enters the acceleration equation A Xddot + Adot Xdot = 0.
+//!
+//! Adding an element type touches its own file and the `REGISTRY` below.
+
+use super::vec3::Vec3;
+use std::collections::BTreeMap;
+use std::fmt;
+
+pub mod angulated_scissor;
+pub mod bar;
+pub mod plate;
+pub mod scissor;
+pub mod sleeve;
+pub mod support;
+
+/// A parameter of an element as written in a model file.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Param {
+    Num(f64),
+    Text(String),
+}
+
+/// The solver-side description of one element: its type name, its own name, the
+/// indices of the joints it connects (in the order its type defines) and its
+/// named parameters. The model layer builds these from the file.
+#[derive(Clone, Debug)]
+pub struct ElementSpec {
+    pub kind: String,
+    pub name: String,
+    pub joints: Vec<usize>,
+    pub params: BTreeMap<String, Param>,
+}
+
+impl ElementSpec {
+    pub fn num(&self, key: &str) -> Result<Option<f64>, String> {
+        match self.params.get(key) {
+            None => Ok(None),
+            Some(Param::Num(v)) if v.is_finite() => Ok(Some(*v)),
+            Some(Param::Num(v)) => Err(format!(
+                "parameter `{key}` is {v}; it must be a finite number"
+            )),
+            Some(Param::Text(s)) => Err(format!(
+                "parameter `{key}` is the text \"{s}\"; it must be a number"
+            )),
+        }
+    }
+    pub fn text(&self, key: &str) -> Result<Option<&str>, String> {
+        match self.params.get(key) {
+            None => Ok(None),
+            Some(Param::Text(s)) => Ok(Some(s)),
+            Some(Param::Num(v)) => Err(format!(
+                "parameter `{key}` is the number {v}; it must be text"
+            )),
+        }
+    }
+    /// Rejects parameters the element type does not know (typos would otherwise be silent).
+    pub fn only_params(&self, known: &[&str]) -> Result<(), String> {
+        for k in self.params.keys() {
+            if !known.contains(&k.as_str()) {
+                return Err(format!(
+                    "unknown parameter `{k}` for a {} element (known: {})",
+                    self.kind,
+                    if known.is_empty() {
+                        "none".to_string()
+                    } else {
+                        known.join(", ")
+                    }
+                ));
+            }
+        }
+        Ok(())
+    }
+    pub fn expect_joints(&self, n: usize, roles: &str) -> Result<(), String> {
+        if self.joints.len() != n {
+            return Err(format!(
+                "a {} element takes {n} joints ({roles}), but {} are given",
+                self.kind,
+                self.joints.len()
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// Read-only access to joint positions or velocities stored as X = [x0 y0 z0 x1 ...].
+#[inline]
+pub fn at(x: &[f64], joint: usize) -> Vec3 {
+    Vec3::new(x[3 * joint], x[3 * joint + 1], x[3 * joint + 2])
+}
+
+/// A constraint macroelement. Rows are the element's own equations; `jacobian`
+/// writes `rows x 3*joints().len()` values, row-major, columns ordered as
+/// (x, y, z) of `joints()[0]`, then of `joints()[1]`, and so on.
+pub trait Constraint: Send + Sync + fmt::Debug {
+    /// Type name as used in model files (`bar`, `scissor`, ...).
+    fn kind(&self) -> &'static str;
+    fn name(&self) -> &str;
+    fn joints(&self) -> &[usize];
+    /// Number of equations the element imposes. `locked` is only meaningful for
+    /// elements that lock (sleeves): they impose nothing until they latch.
+    fn rows(&self, locked: bool) -> usize;
+    /// Phi_e(X), in metres (each row scaled to a length).
+    fn residual(&self, x: &[f64], out: &mut [f64]);
+    /// A_e = dPhi_e/dX on the element's joints.
+    fn jacobian(&self, x: &[f64], out: &mut [f64]);
+    /// (dA_e/dt) Xdot, the velocity-product term of the acceleration constraint.
+    fn adot_xdot(&self, x: &[f64], v: &[f64], out: &mut [f64]);
+    /// For lockable elements: the signed gap g(X) whose zero is the latch
+    /// condition (sleeve length minus design length, m). `None` if it never locks.
+    fn lock_gap(&self, _x: &[f64]) -> Option<f64> {
+        None
+    }
+    /// For lockable elements: the current length and its rate (m, m/s), used to
+    /// publish sleeves as prismatic joints.
+    fn extension(&self, _x: &[f64], _v: &[f64]) -> Option<(f64, f64)> {
+        None
+    }
+}
+
+type Builder = fn(&ElementSpec, &[f64]) -> Result<Box<dyn Constraint>, String>;
+
+/// The registry: model-file type name, what it is, and its constructor. The
+/// constructor receives the spec and the initial positions X0 (for element
+/// dimensions taken from the initial geometry, e.g. bar lengths).
+pub const REGISTRY: &[(&str, &str, Builder)] = &[
+    ("bar", "constant-length member between 2 joints", bar::build),
+    (
+        "sleeve",
+        "telescopic member between 2 joints, free until it latches at `lock_length_m`",
+        sleeve::build,
+    ),
+    (
+        "scissor",
+        "linear scissor-link element: rods i-j and k-l pinned at a common pivot",
+        scissor::build,
+    ),
+    (
+        "angulated_scissor",
+        "planar multiangular scissor element on joints i, o, j, k, l",
+        angulated_scissor::build,
+    ),
+    (
+        "plate",
+        "rigid plate on 4 corner joints (5 bars + coplanarity, full rank when flat)",
+        plate::build,
+    ),
+    (
+        "support",
+        "fixes the named coordinates (`fix` = some of \"xyz\") of 1 joint",
+        support::build,
+    ),
+];
+
+pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, String> {
+    match REGISTRY.iter().find(|(k, _, _)| *k == spec.kind) {
+        Some((_, _, b)) => b(spec, x0),
+        None => Err(format!(
+            "unknown element type `{}` (known: {})",
+            spec.kind,
+            REGISTRY.iter().map(|r| r.0).collect::<Vec<_>>().join(", ")
+        )),
+    }
+}
+
+/// Shared row kernels, so that elements composed of bars and coplanarity
+/// conditions write each equation once.
+pub mod kernels {
+    use super::{at, Vec3};
+
+    /// Distance row Phi = |X_b - X_a| - L. Jacobian [-e, e] with e the unit vector
+    /// a->b; Adot Xdot = (|w|^2 - (e.w)^2) / l with w = Xdot_b - Xdot_a (the
+    /// centripetal part of the relative velocity).
+    pub struct Distance {
+        pub a: usize,
+        pub b: usize,
+        pub length_m: f64,
+    }
+    impl Distance {
+        pub fn residual(&self, x: &[f64]) -> f64 {
+            (at(x, self.b) - at(x, self.a)).norm() - self.length_m
+        }
+        /// Writes the 6 entries for (a, b) at `out[ca..ca+3]`, `out[cb..cb+3]`.
+        pub fn jacobian(&self, x: &[f64], out: &mut [f64], ca: usize, cb: usize) {
+            let d = at(x, self.b) - at(x, self.a);
+            let e = d / d.norm();
+            for k in 0..3 {
+                out[ca + k] = -e[k];
+                out[cb + k] = e[k];
+            }
+        }
+        pub fn adot_xdot(&self, x: &[f64], v: &[f64]) -> f64 {
+            let d = at(x, self.b) - at(x, self.a);
+            let w = at(v, self.b) - at(v, self.a);
+            let l = d.norm();
+            let e = d / l;
+            (w.norm_squared() - e.dot(&w).powi(2)) / l
+        }
+    }
+
+    /// Coplanarity of four points p, a, b, c: Phi = s (r_pa x r_pb) . r_pc with
+    /// r_pq = X_q - X_p and a constant scale s (1/m^2) that makes Phi a length.
+    /// dPhi/dX_a = s r_pb x r_pc, dPhi/dX_b = s r_pc x r_pa, dPhi/dX_c = s r_pa x r_pb,
+    /// dPhi/dX_p = minus their sum. (The paper's Eq. 28 prints the b block with the
+    /// wrong sign.) Adot Xdot = 2 s [(ra' x rb').rc + (ra' x rb).rc' + (ra x rb').rc'].
+    pub struct Coplanar {
+        pub p: usize,
+        pub a: usize,
+        pub b: usize,
+        pub c: usize,
+        pub scale: f64,
+    }
+    impl Coplanar {
+        fn arms(&self, x: &[f64]) -> (Vec3, Vec3, Vec3) {
+            let p = at(x, self.p);
+            (at(x, self.a) - p, at(x, self.b) - p, at(x, self.c) - p)
+        }
+        pub fn residual(&self, x: &[f64]) -> f64 {
+            let (ra, rb, rc) = self.arms(x);
+            self.scale * ra.cross(&rb).dot(&rc)
+        }
+        /// Writes the 4 blocks of 3 at the given column offsets.
+        pub fn jacobian(&self, x: &[f64], out: &mut [f64], cols: [usize; 4]) {
+            let (ra, rb, rc) = self.arms(x);
+            let ga = rb.cross(&rc) * self.scale;
+            let gb = rc.cross(&ra) * self.scale;
+            let gc = ra.cross(&rb) * self.scale;
+            let gp = -(ga + gb + gc);
+            for (g, c) in [gp, ga, gb, gc].iter().zip(cols) {
+                for k in 0..3 {
+                    out[c + k] += g[k];
+                }
+            }
+        }
+        pub fn adot_xdot(&self, x: &[f64], v: &[f64]) -> f64 {
+            let (ra, rb, rc) = self.arms(x);
+            let (va, vb, vc) = self.arms(v);
+            2.0 * self.scale
+                * (va.cross(&vb).dot(&rc) + va.cross(&rb).dot(&vc) + ra.cross(&vb).dot(&vc))
+        }
+    }
+
+    /// Scale making a triple product of arms of length l1, l2 (and a third) a length.
+    pub fn coplanar_scale(l1: f64, l2: f64) -> f64 {
+        1.0 / (l1 * l2).max(1e-12)
+    }
+}

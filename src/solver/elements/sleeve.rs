@@ -1,0 +1,83 @@
+//! Sleeve: a telescopic member between joints a and b. It imposes nothing while it
+//! slides; when its length reaches the design length L_lock it latches and becomes
+//! a bar of length L_lock (Phi = |X_b - X_a| - L_lock). The latch condition is the
+//! zero of the gap g(X) = |X_b - X_a| - L_lock, approached from either side.
+
+use super::kernels::Distance;
+use super::{at, Constraint, ElementSpec};
+
+#[derive(Debug)]
+pub struct Sleeve {
+    name: String,
+    joints: [usize; 2],
+    pub lock_length_m: f64,
+}
+
+impl Sleeve {
+    pub fn new(name: &str, a: usize, b: usize, lock_length_m: f64) -> Self {
+        Sleeve {
+            name: name.to_string(),
+            joints: [a, b],
+            lock_length_m,
+        }
+    }
+    fn row(&self) -> Distance {
+        Distance {
+            a: self.joints[0],
+            b: self.joints[1],
+            length_m: self.lock_length_m,
+        }
+    }
+}
+
+pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, String> {
+    spec.expect_joints(2, "its two end joints")?;
+    spec.only_params(&["lock_length_m"])?;
+    let (a, b) = (spec.joints[0], spec.joints[1]);
+    let l0 = (at(x0, b) - at(x0, a)).norm();
+    if l0 <= 1e-9 {
+        return Err(format!(
+            "zero-length sleeve (its joints are {l0:.3e} m apart); move one end joint"
+        ));
+    }
+    let lock = spec
+        .num("lock_length_m")?
+        .ok_or("a sleeve needs `lock_length_m`, the design length at which it latches")?;
+    if lock <= 1e-9 {
+        return Err(format!("`lock_length_m` = {lock} must be positive"));
+    }
+    Ok(Box::new(Sleeve::new(&spec.name, a, b, lock)))
+}
+
+impl Constraint for Sleeve {
+    fn kind(&self) -> &'static str {
+        "sleeve"
+    }
+    fn name(&self) -> &str {
+        &self.name
+    }
+    fn joints(&self) -> &[usize] {
+        &self.joints
+    }
+    fn rows(&self, locked: bool) -> usize {
+        usize::from(locked)
+    }
+    fn residual(&self, x: &[f64], out: &mut [f64]) {
+        out[0] = self.row().residual(x);
+    }
+    fn jacobian(&self, x: &[f64], out: &mut [f64]) {
+        self.row().jacobian(x, out, 0, 3);
+    }
+    fn adot_xdot(&self, x: &[f64], v: &[f64], out: &mut [f64]) {
+        out[0] = self.row().adot_xdot(x, v);
+    }
+    fn lock_gap(&self, x: &[f64]) -> Option<f64> {
+        Some(self.row().residual(x))
+    }
+    fn extension(&self, x: &[f64], v: &[f64]) -> Option<(f64, f64)> {
+        let d = at(x, self.joints[1]) - at(x, self.joints[0]);
+        let w = at(v, self.joints[1]) - at(v, self.joints[0]);
+        let l = d.norm();
+        Some((l, d.dot(&w) / l))
+    }
+}

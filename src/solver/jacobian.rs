@@ -1,0 +1,127 @@
+//! The assembled constraint system of the active element set: residual Phi,
+//! Jacobian A (block-sparse: each element writes a dense block over its own
+//! joints) and the convective term Adot Xdot. The pattern is built once per
+//! change of the locked set; `fill` only rewrites values.
+
+use super::model::Model;
+
+#[derive(Clone, Debug)]
+pub struct Block {
+    pub element: usize,
+    pub row0: usize,
+    pub rows: usize,
+    /// First column of each of the element's joints (3 * joint index).
+    pub cols: Vec<usize>,
+    /// Offset of the block's row-major values in `Jacobian::values`.
+    pub offset: usize,
+}
+
+#[derive(Clone, Debug, Default)]
+pub struct Jacobian {
+    pub nrows: usize,
+    pub ncols: usize,
+    pub blocks: Vec<Block>,
+    pub values: Vec<f64>,
+}
+
+impl Jacobian {
+    pub fn pattern(model: &Model, locked: &[bool]) -> Jacobian {
+        let mut blocks = Vec::new();
+        let (mut row0, mut offset) = (0, 0);
+        for (e, el) in model.elements.iter().enumerate() {
+            let rows = el.rows(locked[e]);
+            if rows == 0 {
+                continue;
+            }
+            let cols: Vec<usize> = el.joints().iter().map(|j| 3 * j).collect();
+            blocks.push(Block {
+                element: e,
+                row0,
+                rows,
+                offset,
+                cols,
+            });
+            offset += rows * 3 * el.joints().len();
+            row0 += rows;
+        }
+        Jacobian {
+            nrows: row0,
+            ncols: model.n_coords(),
+            blocks,
+            values: vec![0.0; offset],
+        }
+    }
+
+    /// Width of a block's rows (3 per joint).
+    #[inline]
+    pub fn width(b: &Block) -> usize {
+        3 * b.cols.len()
+    }
+
+    pub fn fill(&mut self, model: &Model, x: &[f64]) {
+        for b in &self.blocks {
+            let w = Self::width(b);
+            let vals = &mut self.values[b.offset..b.offset + b.rows * w];
+            vals.fill(0.0);
+            model.elements[b.element].jacobian(x, vals);
+        }
+    }
+
+    pub fn residual(&self, model: &Model, x: &[f64], out: &mut [f64]) {
+        for b in &self.blocks {
+            model.elements[b.element].residual(x, &mut out[b.row0..b.row0 + b.rows]);
+        }
+    }
+
+    pub fn adot_xdot(&self, model: &Model, x: &[f64], v: &[f64], out: &mut [f64]) {
+        for b in &self.blocks {
+            model.elements[b.element].adot_xdot(x, v, &mut out[b.row0..b.row0 + b.rows]);
+        }
+    }
+
+    /// Calls f(row, col, value) for every stored entry.
+    pub fn for_each(&self, mut f: impl FnMut(usize, usize, f64)) {
+        for b in &self.blocks {
+            let w = Self::width(b);
+            for r in 0..b.rows {
+                for (jj, &c0) in b.cols.iter().enumerate() {
+                    for k in 0..3 {
+                        f(
+                            b.row0 + r,
+                            c0 + k,
+                            self.values[b.offset + r * w + 3 * jj + k],
+                        );
+                    }
+                }
+            }
+        }
+    }
+
+    /// out = A v
+    pub fn mul(&self, v: &[f64], out: &mut [f64]) {
+        out[..self.nrows].fill(0.0);
+        self.for_each(|r, c, a| out[r] += a * v[c]);
+    }
+
+    /// out = A^T y
+    pub fn mul_t(&self, y: &[f64], out: &mut [f64]) {
+        out[..self.ncols].fill(0.0);
+        self.for_each(|r, c, a| out[c] += a * y[r]);
+    }
+
+    pub fn to_dense(&self) -> nalgebra::DMatrix<f64> {
+        let mut m = nalgebra::DMatrix::zeros(self.nrows, self.ncols);
+        self.for_each(|r, c, a| m[(r, c)] += a);
+        m
+    }
+
+    /// The element and its local row for a global row.
+    pub fn row_owner(&self, row: usize) -> (usize, usize) {
+        let b = self
+            .blocks
+            .iter()
+            .find(|b| row >= b.row0 && row < b.row0 + b.rows)
+            .expect("row in range");
+        (b.element, row - b.row0)
+    }
+}

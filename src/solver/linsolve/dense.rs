@@ -1,0 +1,141 @@
+//! The paper's method, dense: a rank-revealing SVD of the mass-scaled Jacobian
+//! B = A M^-1/2 = U S V^T gives the rank r, a basis of null(A) and the generalized
+//! inverse.
+//!
+//! With the M-orthonormal null-space basis H = M^-1/2 V_0 (V_0 the right singular
+//! vectors of zero singular value) we have H^T M H = I, and the reduced
+//! equations of the paper (Eq. 8), H^T M H alpha'' = H^T (Q + M A^+ Adot Xdot), give
+//! alpha'' = V_0^T M^-1/2 Q, because the M-weighted generalized inverse
+//! A^+ = M^-1/2 B^+ maps into range(V_r), orthogonal to V_0. Eq. 7 then reads, in
+//! scaled coordinates y = M^1/2 X:
+//!     y'' = V_0 V_0^T f - B^+ c,   f = M^-1/2 Q,   c = Adot Xdot,
+//! and V_0 V_0^T = I - V_r V_r^T needs only the thin SVD. Multipliers follow from
+//! B^T lambda = y'' - f. Singular values below `RANK_TOL` * s_max count as zero, so
+//! redundant rows (states of self-stress) are handled exactly.
+
+use super::ConstraintSolver;
+use crate::solver::jacobian::Jacobian;
+use crate::solver::SolverError;
+use nalgebra::{DMatrix, DVector};
+
+/// Relative singular-value threshold of the rank decision.
+pub const RANK_TOL: f64 = 1e-9;
+
+#[derive(Default)]
+pub struct DenseNullSpace {
+    u: DMatrix<f64>,
+    vt: DMatrix<f64>,
+    sigma: Vec<f64>,
+    rank: usize,
+}
+
+impl DenseNullSpace {
+    /// B^+ r = V_r S^-1 U_r^T r (length: coordinates, scaled).
+    fn pinv(&self, r: &[f64]) -> DVector<f64> {
+        let mut w = DVector::zeros(self.rank);
+        for k in 0..self.rank {
+            w[k] = self
+                .u
+                .column(k)
+                .iter()
+                .zip(r)
+                .map(|(a, b)| a * b)
+                .sum::<f64>()
+                / self.sigma[k];
+        }
+        self.vt.rows(0, self.rank).transpose() * w
+    }
+    /// (B^T)^+ g = U_r S^-1 V_r^T g (length: rows).
+    fn pinv_t(&self, g: &DVector<f64>) -> DVector<f64> {
+        let mut w = self.vt.rows(0, self.rank) * g;
+        for k in 0..self.rank {
+            w[k] /= self.sigma[k];
+        }
+        self.u.columns(0, self.rank) * w
+    }
+}
+
+impl ConstraintSolver for DenseNullSpace {
+    fn name(&self) -> &'static str {
+        "dense"
+    }
+
+    fn factor(&mut self, jac: &Jacobian, inv_mass: &[f64]) -> Result<(), SolverError> {
+        let mut b = DMatrix::<f64>::zeros(jac.nrows.max(1), jac.ncols);
+        jac.for_each(|r, c, a| b[(r, c)] += a * inv_mass[c].sqrt());
+        if b.iter().any(|v| !v.is_finite()) {
+            return Err(SolverError::NonFinite("constraint Jacobian".into()));
+        }
+        let svd = b.svd(true, true);
+        let (u, vt) = (svd.u.expect("u requested"), svd.v_t.expect("v_t requested"));
+        let smax = svd.singular_values.iter().cloned().fold(0.0, f64::max);
+        // nalgebra sorts singular values in decreasing order.
+        let mut order: Vec<usize> = (0..svd.singular_values.len()).collect();
+        order.sort_by(|&a, &b| svd.singular_values[b].total_cmp(&svd.singular_values[a]));
+        self.sigma = order.iter().map(|&k| svd.singular_values[k]).collect();
+        self.u = DMatrix::from_fn(u.nrows(), order.len(), |i, k| u[(i, order[k])]);
+        self.vt = DMatrix::from_fn(order.len(), vt.ncols(), |k, j| vt[(order[k], j)]);
+        self.rank = if jac.nrows == 0 {
+            0
+        } else {
+            self.sigma.iter().filter(|s| **s > RANK_TOL * smax).count()
+        };
+        Ok(())
+    }
+
+    fn accelerations(
+        &mut self,
+        _jac: &Jacobian,
+        inv_mass: &[f64],
+        q: &[f64],
+        c: &[f64],
+        a: &mut [f64],
+        lambda: &mut [f64],
+    ) {
+        let n = q.len();
+        let f = DVector::from_fn(n, |i, _| q[i] * inv_mass[i].sqrt());
+        // y'' = (I - V_r V_r^T) f - B^+ c
+        let vr = self.vt.rows(0, self.rank);
+        let mut y = &f - vr.transpose() * (vr * &f);
+        if !c.is_empty() {
+            y -= self.pinv(c);
+        }
+        for i in 0..n {
+            a[i] = y[i] * inv_mass[i].sqrt();
+        }
+        if !lambda.is_empty() {
+            let l = self.pinv_t(&(y - f));
+            lambda.copy_from_slice(&l.as_slice()[..lambda.len()]);
+        }
+    }
+
+    fn correction(
+        &mut self,
+        _jac: &Jacobian,
+        inv_mass: &[f64],
+        r: &[f64],
+        dx: &mut [f64],
+        mu: &mut [f64],
+    ) {
+        let dy = self.pinv(r);
+        for i in 0..dx.len() {
+            dx[i] = dy[i] * inv_mass[i].sqrt();
+        }
+        // mu = S^+ r = U_r S^-2 U_r^T r
+        let w = DVector::from_fn(self.rank, |k, _| {
+            self.u
+                .column(k)
+                .iter()
+                .zip(r)
+                .map(|(a, b)| a * b)
+                .sum::<f64>()
+                / self.sigma[k].powi(2)
+        });
+        let m = self.u.columns(0, self.rank) * w;
+        mu.copy_from_slice(&m.as_slice()[..mu.len()]);
+    }
+
+    fn rank(&self) -> Option<usize> {
+        Some(self.rank)
+    }
+}

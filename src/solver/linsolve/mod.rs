@@ -1,0 +1,56 @@
+//! Solvers of the constrained linear systems a step needs. Every one of them is
+//! a solve with the mass-weighted constraint operator S = A M^-1 A^T:
+//!
+//! - accelerations: M Xddot = Q + A^T lambda, A Xddot = -c  (c = Adot Xdot);
+//! - the mass-orthogonal correction dX = M^-1 A^T S^+ r, the smallest change in
+//!   the M-norm with A dX = r, used for position and velocity projection and for
+//!   latch impulses (its multipliers mu = S^+ r are the impulses).
+//!
+//! Redundant rows make S singular; every backend returns the minimum-norm
+//! multipliers (S^+), which leaves the motion unique. A backend is factored once
+//! per configuration and then solves as often as needed.
+
+use super::jacobian::Jacobian;
+use super::SolverError;
+
+pub mod dense;
+
+pub trait ConstraintSolver: Send {
+    fn name(&self) -> &'static str;
+    /// Factor at the Jacobian values currently in `jac`.
+    fn factor(&mut self, jac: &Jacobian, inv_mass: &[f64]) -> Result<(), SolverError>;
+    /// Constrained accelerations `a` and multipliers `lambda` (member forces, N).
+    fn accelerations(
+        &mut self,
+        jac: &Jacobian,
+        inv_mass: &[f64],
+        q: &[f64],
+        c: &[f64],
+        a: &mut [f64],
+        lambda: &mut [f64],
+    );
+    /// dx = M^-1 A^T mu with mu = S^+ r (minimum-norm multipliers).
+    fn correction(
+        &mut self,
+        jac: &Jacobian,
+        inv_mass: &[f64],
+        r: &[f64],
+        dx: &mut [f64],
+        mu: &mut [f64],
+    );
+    /// Rank of A at the last factorization, where the method reveals it.
+    fn rank(&self) -> Option<usize>;
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SolverKind {
+    Dense,
+}
+
+impl SolverKind {
+    pub fn make(self) -> Box<dyn ConstraintSolver> {
+        match self {
+            SolverKind::Dense => Box::new(dense::DenseNullSpace::default()),
+        }
+    }
+}

@@ -1,0 +1,91 @@
+//! Mobility of the constraint set: rank of A, mechanisms m = 3n - rank A, states of
+//! self-stress s = rows - rank A (so that m - s = 3n - rows, the extended Maxwell
+//! rule of Calladine and Pellegrino), and which rows are redundant.
+
+use super::jacobian::Jacobian;
+use super::model::Model;
+use serde::Serialize;
+
+/// Relative singular-value threshold of the rank decision.
+pub const RANK_TOL: f64 = 1e-9;
+
+#[derive(Clone, Debug, Serialize)]
+pub struct ElementRows {
+    pub kind: String,
+    pub elements: usize,
+    pub rows: usize,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct Mobility {
+    pub coordinates: usize,
+    pub rows: usize,
+    pub rank: usize,
+    pub mechanisms: usize,
+    pub self_stress: usize,
+    /// Rows that depend on earlier rows, as "element:row".
+    pub redundant_rows: Vec<String>,
+    pub per_element: Vec<ElementRows>,
+}
+
+/// Numerical rank of A by SVD.
+pub fn rank(jac: &Jacobian) -> usize {
+    if jac.nrows == 0 {
+        return 0;
+    }
+    let sv = jac.to_dense().singular_values();
+    let smax = sv.iter().cloned().fold(0.0, f64::max);
+    sv.iter().filter(|s| **s > RANK_TOL * smax).count()
+}
+
+/// Mobility of `model` at positions `x` with the given locked set.
+pub fn analyze(model: &Model, x: &[f64], locked: &[bool]) -> Mobility {
+    let mut jac = Jacobian::pattern(model, locked);
+    jac.fill(model, x);
+    let r = rank(&jac);
+    let dense = jac.to_dense();
+    // Greedy row selection with a Gram-Schmidt basis: a row is redundant if it
+    // lies (to RANK_TOL) in the span of the rows before it.
+    let mut basis: Vec<nalgebra::DVector<f64>> = Vec::new();
+    let mut redundant = Vec::new();
+    for row in 0..jac.nrows {
+        let mut w = dense.row(row).transpose();
+        let norm0 = w.norm();
+        for _ in 0..2 {
+            for q in &basis {
+                let p = q.dot(&w);
+                w.axpy(-p, q, 1.0);
+            }
+        }
+        if w.norm() > 1e-8 * norm0.max(1e-300) {
+            basis.push(w.normalize());
+        } else {
+            let (e, local) = jac.row_owner(row);
+            redundant.push(format!("{}:{}", model.elements[e].name(), local));
+        }
+    }
+    let mut per_element: Vec<ElementRows> = Vec::new();
+    for (e, el) in model.elements.iter().enumerate() {
+        let rows = el.rows(locked[e]);
+        match per_element.iter_mut().find(|p| p.kind == el.kind()) {
+            Some(p) => {
+                p.elements += 1;
+                p.rows += rows;
+            }
+            None => per_element.push(ElementRows {
+                kind: el.kind().to_string(),
+                elements: 1,
+                rows,
+            }),
+        }
+    }
+    Mobility {
+        coordinates: model.n_coords(),
+        rows: jac.nrows,
+        rank: r,
+        mechanisms: model.n_coords() - r,
+        self_stress: jac.nrows - r,
+        redundant_rows: redundant,
+        per_element,
+    }
+}

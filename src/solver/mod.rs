@@ -1,0 +1,64 @@
+//! The simulator core: pure Rust, no ROS, no async runtime, no I/O.
+//!
+//! - [`Model`]: the immutable truss (joints, masses, elements, cables, reference).
+//! - [`State`]: what a step changes.
+//! - [`Simulator::step`]: the one stepping function the CLI, the node and the benches use.
+
+pub mod cable;
+pub mod elements;
+pub mod jacobian;
+pub mod linsolve;
+pub mod mobility;
+pub mod model;
+pub mod simulator;
+pub mod state;
+pub mod vec3;
+
+pub use linsolve::SolverKind;
+pub use model::{Cable, Joint, Model, ModelParts};
+pub use simulator::{Options, Simulator};
+pub use state::{Energy, LockEvent, State};
+
+use std::fmt;
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum SolverError {
+    /// A model or command the solver cannot accept.
+    Invalid(String),
+    InitialViolation {
+        element: String,
+        kind: &'static str,
+        row: usize,
+        residual_m: f64,
+    },
+    NonFinite(String),
+    NoConvergence {
+        t_s: f64,
+    },
+    Projection {
+        violation_m: f64,
+    },
+}
+
+impl fmt::Display for SolverError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            SolverError::Invalid(s) => write!(f, "{s}"),
+            SolverError::InitialViolation { element, kind, row, residual_m } => write!(
+                f,
+                "the initial geometry violates {kind} element `{element}` (row {row} has residual {residual_m:.3e} m, the limit is 1e-6 m); \
+                 fix the joint positions so that the element's constraints hold, e.g. regenerate the model with `truss-deploy generate`"
+            ),
+            SolverError::NonFinite(what) => write!(f, "non-finite values in the {what}; check masses, tensions and geometry"),
+            SolverError::NoConvergence { t_s } => {
+                write!(f, "the Newmark iteration did not converge in the step ending at t = {t_s:.6} s; use a smaller --dt")
+            }
+            SolverError::Projection { violation_m } => write!(
+                f,
+                "projection onto the constraints failed (|Phi| = {violation_m:.3e} m): the truss reached a singular or locked-up configuration"
+            ),
+        }
+    }
+}
+
+impl std::error::Error for SolverError {}

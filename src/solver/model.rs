@@ -1,0 +1,272 @@
+//! The immutable description of a truss: joints with lumped masses, constraint
+//! elements, drive cables, the optional reference deployed geometry and the
+//! environment. What a step changes lives in [`crate::solver::State`].
+
+use super::elements::{self, Constraint, ElementSpec};
+use super::SolverError;
+
+#[derive(Clone, Debug)]
+pub struct Joint {
+    pub name: String,
+    /// Lumped mass of the joint and half of each strut meeting there (kg).
+    pub mass_kg: f64,
+}
+
+/// An active drive cable. `path[0]` is the joint where the cable leaves the motor
+/// drum; `path[last]` is where its far end is anchored; every joint in between
+/// carries a pulley the cable wraps around.
+#[derive(Clone, Debug)]
+pub struct Cable {
+    pub name: String,
+    pub path: Vec<usize>,
+    /// Motor-end tension at start, until a command changes it (N).
+    pub tension_n: f64,
+    /// Largest motor tension a command may ask for (N).
+    pub max_tension_n: f64,
+    /// Coulomb friction coefficient between cable and pulleys.
+    pub friction_mu: f64,
+    /// Line density of the cable (kg/m); enters the corrected Eq. 17 on the pulley arcs.
+    pub line_density_kg_per_m: f64,
+    pub pulley_radius_m: f64,
+    /// Sliding speed below which the friction direction is blended linearly
+    /// through zero (m/s): the capstan exponent is mu*theta*clamp(s/s_slip, -1, 1),
+    /// so that the friction force does not chatter when sliding stops.
+    pub slip_speed_m_s: f64,
+}
+
+#[derive(Debug)]
+pub struct Model {
+    pub name: String,
+    pub joints: Vec<Joint>,
+    /// Initial positions X0 = [x0 y0 z0 x1 ...] (m).
+    pub x0: Vec<f64>,
+    /// Reference deployed positions from closed-form geometry, if known (m).
+    pub reference: Option<Vec<f64>>,
+    pub elements: Vec<Box<dyn Constraint>>,
+    pub cables: Vec<Cable>,
+    pub gravity_m_s2: [f64; 3],
+    /// Viscous damping on each joint's absolute velocity (N s/m).
+    pub damping_n_s_per_m: f64,
+    /// Default time step and end time for offline runs (s).
+    pub dt_s: f64,
+    pub end_time_s: f64,
+    /// Per coordinate: mass (kg) and its inverse, 3 entries per joint.
+    pub mass: Vec<f64>,
+    pub inv_mass: Vec<f64>,
+    /// Indices into `elements` of the elements that latch (sleeves).
+    pub locks: Vec<usize>,
+}
+
+pub struct ModelParts {
+    pub name: String,
+    pub joints: Vec<Joint>,
+    pub x0: Vec<f64>,
+    pub reference: Option<Vec<f64>>,
+    pub elements: Vec<ElementSpec>,
+    pub cables: Vec<Cable>,
+    pub gravity_m_s2: [f64; 3],
+    pub damping_n_s_per_m: f64,
+    pub dt_s: f64,
+    pub end_time_s: f64,
+}
+
+impl Model {
+    /// Builds the model, checking what the solver relies on. Errors name the
+    /// offending item (`what`); the model-file layer adds file and line.
+    pub fn build(p: ModelParts) -> Result<Model, (usize, SolverError)> {
+        let n = p.joints.len();
+        let err = |i: usize, s: String| (i, SolverError::Invalid(s));
+        if p.x0.len() != 3 * n || p.x0.iter().any(|v| !v.is_finite()) {
+            return Err(err(
+                0,
+                "joint positions must be 3 finite numbers per joint".into(),
+            ));
+        }
+        let mut mass = Vec::with_capacity(3 * n);
+        for j in &p.joints {
+            if !(j.mass_kg.is_finite() && j.mass_kg > 0.0) {
+                return Err(err(
+                    0,
+                    format!(
+                        "joint `{}` has mass {} kg; every joint needs a positive lumped mass",
+                        j.name, j.mass_kg
+                    ),
+                ));
+            }
+            mass.extend([j.mass_kg; 3]);
+        }
+        let inv_mass = mass.iter().map(|m| 1.0 / m).collect();
+        let mut elems = Vec::with_capacity(p.elements.len());
+        for (i, spec) in p.elements.iter().enumerate() {
+            if let Some(&bad) = spec.joints.iter().find(|&&j| j >= n) {
+                return Err(err(
+                    i,
+                    format!(
+                        "element `{}` refers to joint index {bad}, but there are {n} joints",
+                        spec.name
+                    ),
+                ));
+            }
+            for (a, ja) in spec.joints.iter().enumerate() {
+                if spec.joints[..a].contains(ja) {
+                    return Err(err(
+                        i,
+                        format!(
+                            "element `{}` names joint `{}` twice",
+                            spec.name, p.joints[*ja].name
+                        ),
+                    ));
+                }
+            }
+            elems
+                .push(elements::build(spec, &p.x0).map_err(|e| {
+                    err(i, format!("element `{}` ({}): {e}", spec.name, spec.kind))
+                })?);
+        }
+        for (i, c) in p.cables.iter().enumerate() {
+            if c.path.len() < 2 {
+                return Err(err(i, format!("cable `{}` has a path of {} joint(s); it needs at least 2 (motor end, anchored end)", c.name, c.path.len())));
+            }
+            for w in c.path.windows(2) {
+                if w[0] == w[1] || w.iter().any(|&j| j >= n) {
+                    return Err(err(
+                        i,
+                        format!(
+                            "cable `{}`: consecutive path joints must be distinct existing joints",
+                            c.name
+                        ),
+                    ));
+                }
+                let l = (elements::at(&p.x0, w[1]) - elements::at(&p.x0, w[0])).norm();
+                if l < 1e-9 {
+                    return Err(err(
+                        i,
+                        format!(
+                            "cable `{}`: the segment {} -> {} has zero length",
+                            c.name, p.joints[w[0]].name, p.joints[w[1]].name
+                        ),
+                    ));
+                }
+            }
+            let nums = [
+                c.tension_n,
+                c.max_tension_n,
+                c.friction_mu,
+                c.line_density_kg_per_m,
+                c.pulley_radius_m,
+                c.slip_speed_m_s,
+            ];
+            if nums.iter().any(|v| !v.is_finite() || *v < 0.0) || c.slip_speed_m_s <= 0.0 {
+                return Err(err(i, format!("cable `{}`: tensions, friction, density and radius must be finite and >= 0, and the slip speed > 0", c.name)));
+            }
+            if c.tension_n > c.max_tension_n {
+                return Err(err(
+                    i,
+                    format!(
+                        "cable `{}`: tension {} N exceeds its max_tension_n {} N",
+                        c.name, c.tension_n, c.max_tension_n
+                    ),
+                ));
+            }
+        }
+        if let Some(r) = &p.reference {
+            if r.len() != 3 * n || r.iter().any(|v| !v.is_finite()) {
+                return Err(err(
+                    0,
+                    "reference positions must be 3 finite numbers for every joint".into(),
+                ));
+            }
+        }
+        if !(p.dt_s.is_finite() && p.dt_s > 0.0 && p.end_time_s.is_finite() && p.end_time_s > 0.0) {
+            return Err(err(
+                0,
+                format!(
+                    "dt_s = {} and end_time_s = {} must be positive",
+                    p.dt_s, p.end_time_s
+                ),
+            ));
+        }
+        if !(p.damping_n_s_per_m.is_finite() && p.damping_n_s_per_m >= 0.0)
+            || p.gravity_m_s2.iter().any(|g| !g.is_finite())
+        {
+            return Err(err(
+                0,
+                "damping must be finite and >= 0, gravity finite".into(),
+            ));
+        }
+        let locks = elems
+            .iter()
+            .enumerate()
+            .filter(|(_, e)| e.lock_gap(&p.x0).is_some())
+            .map(|(i, _)| i)
+            .collect();
+        Ok(Model {
+            name: p.name,
+            joints: p.joints,
+            x0: p.x0,
+            reference: p.reference,
+            elements: elems,
+            cables: p.cables,
+            gravity_m_s2: p.gravity_m_s2,
+            damping_n_s_per_m: p.damping_n_s_per_m,
+            dt_s: p.dt_s,
+            end_time_s: p.end_time_s,
+            mass,
+            inv_mass,
+            locks,
+        })
+    }
+
+    pub fn n_joints(&self) -> usize {
+        self.joints.len()
+    }
+    pub fn n_coords(&self) -> usize {
+        3 * self.joints.len()
+    }
+    pub fn joint_index(&self, name: &str) -> Option<usize> {
+        self.joints.iter().position(|j| j.name == name)
+    }
+    pub fn cable_index(&self, name: &str) -> Option<usize> {
+        self.cables.iter().position(|c| c.name == name)
+    }
+    /// Largest extent of the reference geometry along x, y or z (m).
+    pub fn reference_size_m(&self) -> Option<f64> {
+        let r = self.reference.as_ref()?;
+        let mut size: f64 = 0.0;
+        for axis in 0..3 {
+            let vals = r.iter().skip(axis).step_by(3);
+            let (lo, hi) = vals.fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+                (lo.min(*v), hi.max(*v))
+            });
+            size = size.max(hi - lo);
+        }
+        Some(size)
+    }
+    /// The first element row whose residual at X0 exceeds `tol` (m), as
+    /// (element, row, residual). Sleeves are checked only if they start latched.
+    pub fn initial_violation(&self, tol: f64) -> Option<(usize, usize, f64)> {
+        let mut buf = Vec::new();
+        for (e, el) in self.elements.iter().enumerate() {
+            let starts_locked = el.lock_gap(&self.x0).is_some_and(|g| g.abs() <= 1e-9);
+            let rows = el.rows(starts_locked);
+            buf.resize(rows, 0.0);
+            if rows == 0 {
+                continue;
+            }
+            el.residual(&self.x0, &mut buf);
+            if let Some(r) = buf.iter().position(|v| !(v.abs() <= tol)) {
+                return Some((e, r, buf[r]));
+            }
+        }
+        None
+    }
+
+    /// Total active rows with the given locked set.
+    pub fn active_rows(&self, locked: &[bool]) -> usize {
+        self.elements
+            .iter()
+            .zip(locked)
+            .map(|(e, l)| e.rows(*l))
+            .sum()
+    }
+}

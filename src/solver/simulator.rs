@@ -1,0 +1,651 @@
+//! The stepping loop: Newmark average-acceleration integration of the constrained
+//! equations of motion, projection onto the constraint manifold, and latch events
+//! located inside the step.
+//!
+//! One step of length h from (X_n, V_n, A_n):
+//!   X_{n+1} = X_n + h V_n + h^2/4 (A_n + A_{n+1}),   V_{n+1} = V_n + h/2 (A_n + A_{n+1}),
+//! with A_{n+1} the constrained acceleration at (X_{n+1}, V_{n+1}), found by fixed-point
+//! iteration (each iterate is one constrained solve). Then X_{n+1} is projected
+//! back onto Phi = 0 and V_{n+1} onto A V = 0 by mass-orthogonal corrections
+//! (Bayo and Ledesma), so no constraint drift accumulates.
+//!
+//! Latches: when a sleeve's gap g = l - L_lock changes sign inside the step, the
+//! step is redone with the length h* at which g(h*) = 0 (root of the step map
+//! itself, seeded by the cubic Hermite interpolant), the sleeve becomes a bar,
+//! and the velocities jump to the new constraint manifold by the mass-orthogonal
+//! projection (an inelastic latch). The rest of the step follows from there.
+
+use super::cable::{self, CableEval};
+use super::jacobian::Jacobian;
+use super::linsolve::{ConstraintSolver, SolverKind};
+use super::model::Model;
+use super::state::{Energy, LockEvent, State};
+use super::SolverError;
+
+#[derive(Clone, Debug)]
+pub struct Options {
+    pub solver: SolverKind,
+    /// Positions are projected until max |Phi| is below this (m).
+    pub projection_tol_m: f64,
+    /// Sleeves within this distance of their design length at a latch event latch together (m).
+    pub lock_tol_m: f64,
+    /// The latch time is refined until |g| is below this (m).
+    pub root_tol_m: f64,
+    pub max_newmark_iters: usize,
+    /// An initial geometry whose residual exceeds this is rejected (m).
+    pub initial_tol_m: f64,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            solver: SolverKind::Dense,
+            projection_tol_m: 1e-12,
+            lock_tol_m: 1e-9,
+            root_tol_m: 1e-13,
+            max_newmark_iters: 60,
+            initial_tol_m: 1e-6,
+        }
+    }
+}
+
+/// Buffers and the factorization, reused across steps.
+struct Core {
+    jac: Jacobian,
+    solver: Box<dyn ConstraintSolver>,
+    q: Vec<f64>,
+    c: Vec<f64>,
+    r: Vec<f64>,
+    dx: Vec<f64>,
+    mu: Vec<f64>,
+    // trial state of the step being computed
+    x: Vec<f64>,
+    v: Vec<f64>,
+    a: Vec<f64>,
+    a_guess: Vec<f64>,
+    lambda: Vec<f64>,
+    cables: Vec<CableEval>,
+    violation_m: f64,
+    pub factorizations: u64,
+}
+
+impl Core {
+    fn new(model: &Model, locked: &[bool], solver: Box<dyn ConstraintSolver>) -> Core {
+        let n = model.n_coords();
+        let jac = Jacobian::pattern(model, locked);
+        let m = jac.nrows;
+        Core {
+            jac,
+            solver,
+            q: vec![0.0; n],
+            c: vec![0.0; m],
+            r: vec![0.0; m],
+            dx: vec![0.0; n],
+            mu: vec![0.0; m],
+            x: model.x0.clone(),
+            v: vec![0.0; n],
+            a: vec![0.0; n],
+            a_guess: vec![0.0; n],
+            lambda: vec![0.0; m],
+            cables: model.cables.iter().map(CableEval::for_cable).collect(),
+            violation_m: 0.0,
+            factorizations: 0,
+        }
+    }
+
+    fn set_pattern(&mut self, model: &Model, locked: &[bool]) {
+        self.jac = Jacobian::pattern(model, locked);
+        let m = self.jac.nrows;
+        for b in [&mut self.c, &mut self.r, &mut self.mu, &mut self.lambda] {
+            b.resize(m, 0.0);
+        }
+    }
+
+    fn factor(&mut self, model: &Model) -> Result<(), SolverError> {
+        self.jac.fill(model, &self.x);
+        self.factorizations += 1;
+        self.solver.factor(&self.jac, &model.inv_mass)
+    }
+
+    /// Applied forces Q at the trial (x, v): cables, damping, gravity. The cable
+    /// inertia term uses `a_guess` as the acceleration estimate.
+    fn applied_forces(&mut self, model: &Model, cmd: &[f64]) {
+        self.q.fill(0.0);
+        for (ci, c) in model.cables.iter().enumerate() {
+            cable::evaluate(
+                c,
+                cmd[ci],
+                &self.x,
+                &self.v,
+                Some(&self.a_guess),
+                &mut self.cables[ci],
+            );
+            cable::add_forces(c, &self.cables[ci], &self.x, &mut self.q);
+        }
+        let g = model.gravity_m_s2;
+        for i in 0..self.q.len() {
+            self.q[i] += model.mass[i] * g[i % 3] - model.damping_n_s_per_m * self.v[i];
+        }
+    }
+
+    /// Constrained accelerations at the trial (x, v) into `a` and `lambda`.
+    fn accelerations(
+        &mut self,
+        model: &Model,
+        cmd: &[f64],
+        refactor: bool,
+    ) -> Result<(), SolverError> {
+        if refactor {
+            self.factor(model)?;
+        }
+        self.applied_forces(model, cmd);
+        self.jac.adot_xdot(model, &self.x, &self.v, &mut self.c);
+        self.solver.accelerations(
+            &self.jac,
+            &model.inv_mass,
+            &self.q,
+            &self.c,
+            &mut self.a,
+            &mut self.lambda,
+        );
+        if self.a.iter().any(|v| !v.is_finite()) {
+            return Err(SolverError::NonFinite("accelerations".into()));
+        }
+        Ok(())
+    }
+
+    /// Newton iterations X <- X - M^-1 A^T S^+ Phi(X) until max |Phi| <= tol.
+    fn project_positions(
+        &mut self,
+        model: &Model,
+        tol: f64,
+        factored: bool,
+    ) -> Result<(), SolverError> {
+        let mut factored = factored;
+        for _ in 0..25 {
+            self.jac.residual(model, &self.x, &mut self.r);
+            self.violation_m = self.r.iter().fold(0.0, |m, v| m.max(v.abs()));
+            if self.violation_m <= tol {
+                return Ok(());
+            }
+            if !factored {
+                self.factor(model)?;
+            }
+            factored = false;
+            self.solver.correction(
+                &self.jac,
+                &model.inv_mass,
+                &self.r,
+                &mut self.dx,
+                &mut self.mu,
+            );
+            for (x, d) in self.x.iter_mut().zip(&self.dx) {
+                *x -= d;
+            }
+        }
+        if self.violation_m <= 1e3 * tol {
+            return Ok(()); // converged to roundoff of a large structure
+        }
+        Err(SolverError::Projection {
+            violation_m: self.violation_m,
+        })
+    }
+
+    /// V <- V - M^-1 A^T S^+ A V (needs a current factorization at x). Returns the
+    /// multipliers in `mu` and A V (before) in `r`.
+    fn project_velocities(&mut self, model: &Model) {
+        self.jac.mul(&self.v, &mut self.r);
+        self.solver.correction(
+            &self.jac,
+            &model.inv_mass,
+            &self.r,
+            &mut self.dx,
+            &mut self.mu,
+        );
+        for (v, d) in self.v.iter_mut().zip(&self.dx) {
+            *v -= d;
+        }
+    }
+
+    /// One Newmark step of length h from `s` into the trial state.
+    fn newmark(
+        &mut self,
+        model: &Model,
+        s: &State,
+        h: f64,
+        opts: &Options,
+    ) -> Result<(), SolverError> {
+        let cmd = &s.cable_tension_cmd_n;
+        self.a_guess.copy_from_slice(&s.a);
+        let amax = s.a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let mut converged = false;
+        for _ in 0..opts.max_newmark_iters {
+            for i in 0..self.x.len() {
+                let asum = s.a[i] + self.a_guess[i];
+                self.x[i] = s.x[i] + h * s.v[i] + 0.25 * h * h * asum;
+                self.v[i] = s.v[i] + 0.5 * h * asum;
+            }
+            self.accelerations(model, cmd, true)?;
+            let mut change = 0.0f64;
+            let mut scale = amax;
+            for i in 0..self.a.len() {
+                change = change.max((self.a[i] - self.a_guess[i]).abs());
+                scale = scale.max(self.a[i].abs());
+            }
+            self.a_guess.copy_from_slice(&self.a);
+            if change <= 1e-12 * scale || change * h * h <= 1e-16 {
+                converged = true;
+                break;
+            }
+        }
+        if !converged {
+            return Err(SolverError::NoConvergence { t_s: s.t_s + h });
+        }
+        for i in 0..self.x.len() {
+            let asum = s.a[i] + self.a_guess[i];
+            self.x[i] = s.x[i] + h * s.v[i] + 0.25 * h * h * asum;
+            self.v[i] = s.v[i] + 0.5 * h * asum;
+        }
+        self.project_positions(model, opts.projection_tol_m, false)?;
+        self.factor(model)?;
+        self.project_velocities(model);
+        self.accelerations(model, cmd, false)
+    }
+}
+
+/// The simulator: an immutable model, the state it advances, and the solver.
+pub struct Simulator {
+    model: Model,
+    state: State,
+    core: Core,
+    opts: Options,
+}
+
+fn gap(model: &Model, e: usize, x: &[f64]) -> f64 {
+    model.elements[e].lock_gap(x).unwrap_or(f64::NAN)
+}
+
+/// Cubic Hermite interpolant of joint j at fraction s of a step of length h.
+fn hermite(x0: &[f64], v0: &[f64], x1: &[f64], v1: &[f64], h: f64, s: f64, j: usize) -> [f64; 3] {
+    let (s2, s3) = (s * s, s * s * s);
+    let (h00, h10, h01, h11) = (
+        2.0 * s3 - 3.0 * s2 + 1.0,
+        s3 - 2.0 * s2 + s,
+        -2.0 * s3 + 3.0 * s2,
+        s3 - s2,
+    );
+    let mut p = [0.0; 3];
+    for k in 0..3 {
+        let i = 3 * j + k;
+        p[k] = h00 * x0[i] + h10 * h * v0[i] + h01 * x1[i] + h11 * h * v1[i];
+    }
+    p
+}
+
+impl Simulator {
+    pub fn new(model: Model, opts: Options) -> Result<Simulator, SolverError> {
+        let locked = vec![false; model.elements.len()];
+        let core = Core::new(&model, &locked, opts.solver.make());
+        let mut sim = Simulator {
+            state: blank_state(&model),
+            model,
+            core,
+            opts,
+        };
+        sim.initialize()?;
+        Ok(sim)
+    }
+
+    /// Puts the state at t = 0: checks the initial geometry, settles it to
+    /// roundoff, latches sleeves that start at their design length, and computes
+    /// the consistent initial accelerations and mobility.
+    fn initialize(&mut self) -> Result<(), SolverError> {
+        let model = &self.model;
+        let mut state = blank_state(model);
+        for &e in &model.locks {
+            state.locked[e] = gap(model, e, &model.x0).abs() <= self.opts.lock_tol_m;
+        }
+        let core = &mut self.core;
+        core.set_pattern(model, &state.locked);
+        core.x.copy_from_slice(&model.x0);
+        if let Some((e, row, residual_m)) = model.initial_violation(self.opts.initial_tol_m) {
+            let el = &model.elements[e];
+            return Err(SolverError::InitialViolation {
+                element: el.name().to_string(),
+                kind: el.kind(),
+                row,
+                residual_m,
+            });
+        }
+        core.project_positions(model, self.opts.projection_tol_m, false)?;
+        core.v.fill(0.0);
+        core.factor(model)?;
+        core.a_guess.fill(0.0);
+        core.accelerations(model, &state.cable_tension_cmd_n, false)?;
+        state.x.copy_from_slice(&core.x);
+        state.a.copy_from_slice(&core.a);
+        state.lambda.clone_from(&core.lambda);
+        state.cables.clone_from(&core.cables);
+        state.max_violation_m = core.violation_m;
+        self.state = state;
+        self.state.mechanisms = self.model.n_coords() - self.rank_now();
+        self.state.deployed = !self.model.locks.is_empty() && self.all_locked();
+        Ok(())
+    }
+
+    /// Back to the initial state (same model, the model's cable tensions).
+    pub fn reset(&mut self) -> Result<(), SolverError> {
+        self.initialize()
+    }
+
+    pub fn model(&self) -> &Model {
+        &self.model
+    }
+    pub fn state(&self) -> &State {
+        &self.state
+    }
+    pub fn options(&self) -> &Options {
+        &self.opts
+    }
+    pub fn jacobian(&self) -> &Jacobian {
+        &self.core.jac
+    }
+    pub fn factorizations(&self) -> u64 {
+        self.core.factorizations
+    }
+
+    /// Sets a cable's motor-end tension from the next step on.
+    pub fn set_cable_tension(&mut self, cable: usize, tension_n: f64) -> Result<(), SolverError> {
+        let c = self
+            .model
+            .cables
+            .get(cable)
+            .ok_or_else(|| SolverError::Invalid(format!("no cable with index {cable}")))?;
+        if !(tension_n.is_finite() && tension_n >= 0.0 && tension_n <= c.max_tension_n) {
+            return Err(SolverError::Invalid(format!(
+                "tension {tension_n} N for cable `{}` must be finite, >= 0 and <= {} N",
+                c.name, c.max_tension_n
+            )));
+        }
+        self.state.cable_tension_cmd_n[cable] = tension_n;
+        Ok(())
+    }
+
+    fn all_locked(&self) -> bool {
+        self.model.locks.iter().all(|&e| self.state.locked[e])
+    }
+
+    fn rank_now(&self) -> usize {
+        match self.core.solver.rank() {
+            Some(r) => r,
+            None => super::mobility::rank(&self.core.jac),
+        }
+    }
+
+    /// Advances the state by exactly `dt` seconds, latching sleeves on the way.
+    /// Returns the number of latch events in this step.
+    pub fn step(&mut self, dt: f64) -> Result<usize, SolverError> {
+        if !(dt.is_finite() && dt > 0.0) {
+            return Err(SolverError::Invalid(format!(
+                "time step {dt} s must be positive and finite"
+            )));
+        }
+        let t_end = self.state.t_s + dt;
+        let mut events = 0;
+        let mut guard = 0;
+        while t_end - self.state.t_s > 1e-12 * dt {
+            guard += 1;
+            if guard > 10 + 4 * self.model.locks.len() {
+                return Err(SolverError::Invalid(
+                    "too many latch events inside one step".into(),
+                ));
+            }
+            let h = t_end - self.state.t_s;
+            self.core.newmark(&self.model, &self.state, h, &self.opts)?;
+            match self.first_crossing(h) {
+                None => {
+                    self.accept(h);
+                }
+                Some(target) => {
+                    let h_star = self.locate_latch(target, h)?;
+                    self.accept(h_star);
+                    events += self.latch()?;
+                }
+            }
+        }
+        self.state.t_s = t_end.max(self.state.t_s);
+        self.state.steps += 1;
+        Ok(events)
+    }
+
+    /// The unlocked sleeve whose gap changes sign first in the trial step, by the
+    /// Hermite interpolant of the step.
+    fn first_crossing(&self, h: f64) -> Option<usize> {
+        let (s, c) = (&self.state, &self.core);
+        let mut best: Option<(f64, usize)> = None;
+        for &e in &self.model.locks {
+            if s.locked[e] {
+                continue;
+            }
+            let (g0, g1) = (gap(&self.model, e, &s.x), gap(&self.model, e, &c.x));
+            if g0 == 0.0 || g0 * g1 > 0.0 {
+                continue;
+            }
+            // bisection on the interpolant for the fraction of the step
+            let el = &self.model.elements[e];
+            let (ja, jb) = (el.joints()[0], el.joints()[1]);
+            let (pa0, pb0) = (super::elements::at(&s.x, ja), super::elements::at(&s.x, jb));
+            let lock_len = (pb0 - pa0).norm() - g0;
+            let g_at = |sf: f64| {
+                let (pa, pb) = (
+                    hermite(&s.x, &s.v, &c.x, &c.v, h, sf, ja),
+                    hermite(&s.x, &s.v, &c.x, &c.v, h, sf, jb),
+                );
+                ((pb[0] - pa[0]).powi(2) + (pb[1] - pa[1]).powi(2) + (pb[2] - pa[2]).powi(2)).sqrt()
+                    - lock_len
+            };
+            let (mut lo, mut hi) = (0.0, 1.0);
+            for _ in 0..60 {
+                let mid = 0.5 * (lo + hi);
+                if g_at(mid) * g0 > 0.0 {
+                    lo = mid;
+                } else {
+                    hi = mid;
+                }
+            }
+            if best.map_or(true, |(sb, _)| hi < sb) {
+                best = Some((hi, e));
+            }
+        }
+        best.map(|(_, e)| e)
+    }
+
+    /// Finds h* in (0, h] with gap_target(step(h*)) = 0 by the Illinois method on the
+    /// step map, leaving the trial at h*. If another sleeve turns out to cross
+    /// earlier, it becomes the target.
+    fn locate_latch(&mut self, mut target: usize, h: f64) -> Result<f64, SolverError> {
+        let model = &self.model;
+        let g0 = gap(model, target, &self.state.x);
+        let (mut a, mut ga) = (0.0, g0);
+        let (mut b, mut gb) = (h, gap(model, target, &self.core.x));
+        let mut side = 0i32;
+        let mut h_star = b;
+        for _ in 0..100 {
+            // Illinois step (regula falsi with halving of the stale end)
+            let mut m = (a * gb - b * ga) / (gb - ga);
+            if !(m > a && m < b) {
+                m = 0.5 * (a + b);
+            }
+            self.core.newmark(&self.model, &self.state, m, &self.opts)?;
+            let gm = gap(&self.model, target, &self.core.x);
+            h_star = m;
+            // did another sleeve already cross before m?
+            if let Some(other) = self.crossed_by(m, target) {
+                target = other;
+                let g0o = gap(&self.model, target, &self.state.x);
+                a = 0.0;
+                ga = g0o;
+                b = m;
+                gb = gap(&self.model, target, &self.core.x);
+                side = 0;
+                continue;
+            }
+            if gm.abs() <= self.opts.root_tol_m || (b - a) <= 1e-15 * h {
+                return Ok(h_star);
+            }
+            if gm * ga > 0.0 {
+                a = m;
+                ga = gm;
+                if side == -1 {
+                    gb *= 0.5;
+                }
+                side = -1;
+            } else {
+                b = m;
+                gb = gm;
+                if side == 1 {
+                    ga *= 0.5;
+                }
+                side = 1;
+            }
+        }
+        // Accept the best point found; the latch projection closes the remaining gap.
+        let _ = h_star;
+        self.core.newmark(&self.model, &self.state, b, &self.opts)?;
+        Ok(b)
+    }
+
+    /// Another unlocked sleeve whose gap has changed sign (beyond the latch
+    /// tolerance) in the current trial of length m.
+    fn crossed_by(&self, _m: f64, target: usize) -> Option<usize> {
+        let (s, c) = (&self.state, &self.core);
+        self.model.locks.iter().copied().find(|&e| {
+            if e == target || s.locked[e] {
+                return false;
+            }
+            let (g0, g1) = (gap(&self.model, e, &s.x), gap(&self.model, e, &c.x));
+            g0 != 0.0 && g0 * g1 < 0.0 && g1.abs() > self.opts.lock_tol_m
+        })
+    }
+
+    /// Commits the trial step of length h to the state, with the energy ledger.
+    fn accept(&mut self, h: f64) {
+        let (m, s, c) = (&self.model, &mut self.state, &self.core);
+        let e = &mut s.energy;
+        for (ci, cab) in m.cables.iter().enumerate() {
+            let (old, new) = (&s.cables[ci], &c.cables[ci]);
+            // motor tension is the command, constant over the step: exact work
+            e.motor_work_j += s.cable_tension_cmd_n[ci] * (old.length_m - new.length_m);
+            let mut seg_work = 0.0;
+            for j in 0..cab.path.len() - 1 {
+                seg_work -= 0.5
+                    * (old.segment_tension_n[j] + new.segment_tension_n[j])
+                    * (new.segment_length_m[j] - old.segment_length_m[j]);
+            }
+            e.cable_work_j += seg_work;
+            e.friction_loss_j +=
+                s.cable_tension_cmd_n[ci] * (old.length_m - new.length_m) - seg_work;
+        }
+        let g = m.gravity_m_s2;
+        for i in 0..s.x.len() {
+            let dx = c.x[i] - s.x[i];
+            e.damping_loss_j += m.damping_n_s_per_m * 0.5 * (s.v[i] + c.v[i]) * dx;
+            e.gravity_work_j += m.mass[i] * g[i % 3] * dx;
+        }
+        s.t_s += h;
+        s.x.copy_from_slice(&c.x);
+        s.v.copy_from_slice(&c.v);
+        s.a.copy_from_slice(&c.a);
+        s.lambda.clone_from(&c.lambda);
+        for (o, n) in s.cables.iter_mut().zip(&c.cables) {
+            o.clone_from(n);
+        }
+        s.max_violation_m = s.max_violation_m.max(c.violation_m);
+    }
+
+    /// Latches every sleeve at its design length (within the latch tolerance),
+    /// applies the inelastic latch to the velocities and records the events.
+    fn latch(&mut self) -> Result<usize, SolverError> {
+        let model = &self.model;
+        let newly: Vec<usize> = model
+            .locks
+            .iter()
+            .copied()
+            .filter(|&e| {
+                !self.state.locked[e]
+                    && gap(model, e, &self.state.x).abs()
+                        <= self.opts.lock_tol_m.max(10.0 * self.opts.root_tol_m)
+            })
+            .collect();
+        if newly.is_empty() {
+            return Ok(0);
+        }
+        for &e in &newly {
+            self.state.locked[e] = true;
+        }
+        let core = &mut self.core;
+        core.set_pattern(model, &self.state.locked);
+        core.x.copy_from_slice(&self.state.x);
+        core.v.copy_from_slice(&self.state.v);
+        core.project_positions(model, self.opts.projection_tol_m, false)?;
+        core.factor(model)?;
+        let ke_before = self.state.kinetic_energy_j(model);
+        core.project_velocities(model); // r = A v before, mu = impulses
+        let t = self.state.t_s;
+        for &e in &newly {
+            let b = core
+                .jac
+                .blocks
+                .iter()
+                .find(|b| b.element == e)
+                .expect("latched element has a row");
+            let (mu, rate) = (core.mu[b.row0], core.r[b.row0]);
+            self.state.locks.push(LockEvent {
+                element: e,
+                name: model.elements[e].name().to_string(),
+                time_s: t,
+                impulse_ns: mu.abs(),
+                energy_lost_j: 0.5 * mu * rate,
+                closing_speed_m_s: rate,
+            });
+        }
+        core.a_guess.copy_from_slice(&self.state.a);
+        core.accelerations(model, &self.state.cable_tension_cmd_n, false)?;
+        let s = &mut self.state;
+        s.x.copy_from_slice(&core.x);
+        s.v.copy_from_slice(&core.v);
+        s.a.copy_from_slice(&core.a);
+        s.lambda.clone_from(&core.lambda);
+        s.max_violation_m = s.max_violation_m.max(core.violation_m);
+        let ke_after = s.kinetic_energy_j(model);
+        s.energy.lock_loss_j += ke_before - ke_after;
+        let mechanisms = model.n_coords() - self.rank_now();
+        self.state.mechanisms = mechanisms;
+        if self.all_locked() || self.state.mechanisms == 0 {
+            self.state.deployed = true;
+            self.state.deploy_time_s.get_or_insert(t);
+        }
+        Ok(newly.len())
+    }
+}
+
+fn blank_state(model: &Model) -> State {
+    let n = model.n_coords();
+    State {
+        t_s: 0.0,
+        x: model.x0.clone(),
+        v: vec![0.0; n],
+        a: vec![0.0; n],
+        locked: vec![false; model.elements.len()],
+        cable_tension_cmd_n: model.cables.iter().map(|c| c.tension_n).collect(),
+        cables: model.cables.iter().map(CableEval::for_cable).collect(),
+        lambda: Vec::new(),
+        energy: Energy::default(),
+        locks: Vec::new(),
+        max_violation_m: 0.0,
+        mechanisms: 0,
+        deployed: false,
+        deploy_time_s: None,
+        steps: 0,
+    }
+}

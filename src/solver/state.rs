@@ -1,0 +1,100 @@
+//! What a step changes: time, positions, velocities, accelerations, the locked
+//! set, cable commands and readings, member forces, the energy ledger and the
+//! lock events so far.
+
+use super::cable::CableEval;
+use super::model::Model;
+
+/// One sleeve latching: when, how hard, and the kinetic energy the inelastic
+/// latch took out of the structure.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct LockEvent {
+    pub element: usize,
+    pub name: String,
+    pub time_s: f64,
+    /// Magnitude of the impulse carried by the latching member (N s).
+    pub impulse_ns: f64,
+    /// Kinetic energy lost in this latch (J): 1/2 mu * (closing rate before), mu the impulse.
+    pub energy_lost_j: f64,
+    /// Sleeve closing (or opening) rate just before the latch (m/s).
+    pub closing_speed_m_s: f64,
+}
+
+/// Energy bookkeeping (J). Balance: kinetic = cable_work + gravity_work - damping_loss - lock_loss.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct Energy {
+    /// Work of the motors: motor tension times the cable length reeled in.
+    pub motor_work_j: f64,
+    /// Work of the cable segments on the structure (motor work minus pulley friction).
+    pub cable_work_j: f64,
+    pub friction_loss_j: f64,
+    pub damping_loss_j: f64,
+    pub lock_loss_j: f64,
+    pub gravity_work_j: f64,
+}
+
+impl Energy {
+    /// |kinetic - (work in - losses)| divided by the largest energy that flowed.
+    pub fn balance_rel_error(&self, kinetic_j: f64) -> f64 {
+        let net = self.cable_work_j + self.gravity_work_j - self.damping_loss_j - self.lock_loss_j;
+        let scale = self
+            .motor_work_j
+            .abs()
+            .max(self.gravity_work_j.abs())
+            .max(kinetic_j)
+            .max(1e-300);
+        (kinetic_j - net).abs() / scale
+    }
+}
+
+#[derive(Clone, Debug)]
+pub struct State {
+    pub t_s: f64,
+    pub x: Vec<f64>,
+    pub v: Vec<f64>,
+    pub a: Vec<f64>,
+    /// Per element; only lockable elements ever become true.
+    pub locked: Vec<bool>,
+    /// Motor-end tension commanded per cable (N).
+    pub cable_tension_cmd_n: Vec<f64>,
+    pub cables: Vec<CableEval>,
+    /// Lagrange multipliers of the active rows (row order of the current Jacobian).
+    pub lambda: Vec<f64>,
+    pub energy: Energy,
+    pub locks: Vec<LockEvent>,
+    /// Largest |Phi| seen after any step (m).
+    pub max_violation_m: f64,
+    /// Mechanisms (3n - rank A) of the current constraint set, at the last check.
+    pub mechanisms: usize,
+    pub deployed: bool,
+    pub deploy_time_s: Option<f64>,
+    pub steps: u64,
+}
+
+impl State {
+    pub fn kinetic_energy_j(&self, model: &Model) -> f64 {
+        0.5 * self
+            .v
+            .iter()
+            .zip(&model.mass)
+            .map(|(v, m)| m * v * v)
+            .sum::<f64>()
+    }
+    /// Max distance of any joint from the reference, over the largest reference dimension.
+    pub fn final_error_rel(&self, model: &Model) -> Option<f64> {
+        let r = model.reference.as_ref()?;
+        let size = model.reference_size_m()?;
+        let worst = (0..model.n_joints())
+            .map(|j| {
+                ((0..3)
+                    .map(|k| (self.x[3 * j + k] - r[3 * j + k]).powi(2))
+                    .sum::<f64>())
+                .sqrt()
+            })
+            .fold(0.0, f64::max);
+        Some(worst / size)
+    }
+    pub fn locks_engaged(&self, model: &Model) -> usize {
+        model.locks.iter().filter(|&&e| self.locked[e]).count()
+    }
+}
