@@ -49,14 +49,15 @@ impl Plate {
 pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, String> {
     spec.expect_joints(4, "its corners i, j, k, l in cyclic order")?;
     spec.only_params(&["formulation"])?;
-    let six_bars =
-        match spec.text("formulation")?.unwrap_or("flat") {
-            "flat" => false,
-            "six_bars" => true,
-            other => return Err(format!(
+    let six_bars = match spec.text("formulation")?.unwrap_or("flat") {
+        "flat" => false,
+        "six_bars" => true,
+        other => {
+            return Err(format!(
                 "`formulation` = \"{other}\"; use \"flat\" (5 bars + coplanarity) or \"six_bars\""
-            )),
-        };
+            ))
+        }
+    };
     let j4 = [
         spec.joints[0],
         spec.joints[1],

@@ -1,0 +1,373 @@
+//! Dynamics against oracles that need no simulator: the one-DOF energy
+//! quadrature of the pantograph mast, the closed-form latch of two masses, the
+//! energy balance and the constraint drift.
+
+use truss_deploy::model::generate::{self, MastParams};
+use truss_deploy::model::parse;
+use truss_deploy::solver::{Options, Simulator};
+
+fn mast_sim(p: &MastParams) -> Simulator {
+    let text = generate::mast(p).expect("valid params").to_toml();
+    let m = parse(&text, "mast.toml")
+        .expect("generated model loads")
+        .model;
+    Simulator::new(m, Options::default()).expect("simulator")
+}
+
+fn run_to_deploy(sim: &mut Simulator, dt: f64, max_t: f64) {
+    while !sim.state().deployed {
+        assert!(sim.state().t_s < max_t, "not deployed by t = {max_t}");
+        sim.step(dt).expect("step");
+    }
+}
+
+/// Exact deploy time of the frictionless, undamped mast under constant tension F:
+/// 1/2 m(phi) phidot^2 = F (l(phi0) - l(phi)), m(phi) = sum_i m_i |dx_i/dphi|^2,
+/// t = int dphi / phidot, with phi = phi0 + s^2 to remove the 1/sqrt singularity at
+/// the start, integrated by composite Simpson.
+fn quadrature_deploy_time(p: &MastParams) -> f64 {
+    let (phi0, phid) = (p.start_deg.to_radians(), p.deploy_deg.to_radians());
+    let (n, l, f) = (p.units, p.rod_length_m, p.tension_n);
+    let mass = |phi: f64| -> f64 {
+        generate::mast_velocity_coefficients(n, l, phi)
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| *i != 0) // L0 is fixed
+            .map(|(_, d)| p.joint_mass_kg * (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]))
+            .sum()
+    };
+    let l0 = generate::mast_cable_length(n, l, phi0);
+    let integrand = |s: f64| -> f64 {
+        if s == 0.0 {
+            // limit: l0 - l(phi0 + s^2) ~ (N+1) L sin(phi0) s^2
+            let k = (n as f64 + 1.0) * l * phi0.sin();
+            return 2.0 / (2.0 * f * k / mass(phi0)).sqrt();
+        }
+        let phi = phi0 + s * s;
+        let rate = (2.0 * f * (l0 - generate::mast_cable_length(n, l, phi)) / mass(phi)).sqrt();
+        2.0 * s / rate
+    };
+    let smax = (phid - phi0).sqrt();
+    let k = 20_000;
+    let h = smax / k as f64;
+    let mut sum = integrand(0.0) + integrand(smax);
+    for i in 1..k {
+        sum += integrand(i as f64 * h) * if i % 2 == 1 { 4.0 } else { 2.0 };
+    }
+    sum * h / 3.0
+}
+
+fn frictionless() -> MastParams {
+    MastParams {
+        friction_mu: 0.0,
+        damping_n_s_per_m: 0.0,
+        ..MastParams::default()
+    }
+}
+
+#[test]
+fn one_dof_mast_latches_at_the_quadrature_time() {
+    let p = frictionless();
+    let exact = quadrature_deploy_time(&p);
+    let mut sim = mast_sim(&p);
+    run_to_deploy(&mut sim, 0.05, 10.0 * exact);
+    let t = sim.state().deploy_time_s.unwrap();
+    let rel = (t - exact).abs() / exact;
+    eprintln!(
+        "one-DOF mast: simulated {t:.9} s, quadrature {exact:.9} s, rel error {rel:.3e} at dt 0.05"
+    );
+    assert!(
+        rel < 1e-4,
+        "deploy time {t} vs quadrature {exact}: rel error {rel:e}"
+    );
+}
+
+#[test]
+fn one_dof_error_falls_fourfold_when_dt_halves() {
+    let p = frictionless();
+    let exact = quadrature_deploy_time(&p);
+    let mut errs = Vec::new();
+    for dt in [0.1, 0.05, 0.025] {
+        let mut sim = mast_sim(&p);
+        run_to_deploy(&mut sim, dt, 10.0 * exact);
+        errs.push((sim.state().deploy_time_s.unwrap() - exact).abs());
+    }
+    eprintln!("one-DOF deploy-time errors at dt 0.1, 0.05, 0.025: {errs:?}");
+    for w in errs.windows(2) {
+        let ratio = w[0] / w[1];
+        assert!(
+            (3.0..5.5).contains(&ratio),
+            "error ratio {ratio} for halved dt (errors {errs:?}); second order expects ~4"
+        );
+    }
+}
+
+#[test]
+fn one_dof_trajectory_follows_the_energy_integral() {
+    // At every step the kinetic energy equals the cable work F (l0 - l), which for the
+    // frictionless constant-tension cable is an exact function of the geometry.
+    let p = frictionless();
+    let mut sim = mast_sim(&p);
+    let l0 = generate::mast_cable_length(p.units, p.rod_length_m, p.start_deg.to_radians());
+    let mut worst: f64 = 0.0;
+    while !sim.state().deployed {
+        sim.step(0.05).unwrap();
+        if sim.state().deployed {
+            break;
+        }
+        let s = sim.state();
+        let work = p.tension_n * (l0 - s.cables[0].length_m);
+        worst = worst.max((s.kinetic_energy_j(sim.model()) - work).abs() / work);
+    }
+    assert!(
+        worst < 1e-5,
+        "kinetic energy departs from the cable work by {worst:e} (relative)"
+    );
+}
+
+#[test]
+fn mast_deployment_keeps_constraints_and_energy() {
+    let p = MastParams::default(); // with pulley friction
+    let mut sim = mast_sim(&p);
+    let mut steps = 0;
+    while !sim.state().deployed {
+        sim.step(0.05).unwrap();
+        steps += 1;
+        assert!(steps < 100_000);
+        assert!(
+            sim.state().max_violation_m <= 1e-9,
+            "|Phi| = {} at t = {}",
+            sim.state().max_violation_m,
+            sim.state().t_s
+        );
+    }
+    let s = sim.state();
+    let ke = s.kinetic_energy_j(sim.model());
+    let bal = s.energy.balance_rel_error(ke);
+    assert!(bal <= 1e-5, "energy balance error {bal:e}");
+    assert!(
+        s.energy.friction_loss_j > 0.0,
+        "pulley friction must dissipate"
+    );
+    assert!(s.final_error_rel(sim.model()).unwrap() <= 1e-6);
+    assert_eq!(s.mechanisms, 0);
+    assert_eq!(s.locks.len(), p.units, "every sleeve latches");
+}
+
+#[test]
+fn friction_slows_the_deployment() {
+    let mut with = mast_sim(&MastParams {
+        friction_mu: 0.05,
+        ..frictionless()
+    });
+    let mut without = mast_sim(&frictionless());
+    run_to_deploy(&mut with, 0.05, 1e4);
+    run_to_deploy(&mut without, 0.05, 1e4);
+    assert!(with.state().deploy_time_s.unwrap() > without.state().deploy_time_s.unwrap());
+    assert!(with.state().energy.friction_loss_j > 0.0);
+    assert_eq!(without.state().energy.friction_loss_j.abs() < 1e-15, true);
+}
+
+#[test]
+fn sleeves_of_a_one_dof_mast_latch_together_and_leave_no_mechanism() {
+    let mut sim = mast_sim(&MastParams::default());
+    assert_eq!(sim.state().mechanisms, 1);
+    run_to_deploy(&mut sim, 0.05, 1e4);
+    let locks = &sim.state().locks;
+    let t0 = locks[0].time_s;
+    assert!(locks.iter().all(|l| (l.time_s - t0).abs() < 1e-12));
+    // Redundant latches: the four sleeves share the impulse, and the energy lost is
+    // all the kinetic energy there was (no mechanism can keep moving).
+    assert!(sim.state().kinetic_energy_j(sim.model()) < 1e-20);
+    let lost: f64 = locks.iter().map(|l| l.energy_lost_j).sum();
+    assert!((lost - sim.state().energy.lock_loss_j).abs() <= 1e-12 * lost);
+}
+
+/// Two masses on the x axis pulled together by a cable, with a sleeve between them
+/// that latches at `lock` m. Closed form: constant force F, reduced mass mu.
+fn two_mass_model(m1: f64, m2: f64, f: f64, lock: f64) -> String {
+    format!(
+        r#"
+[model]
+name = "two_masses"
+[[joint]]
+name = "A"
+position_m = [0.0, 0.0, 0.0]
+mass_kg = {m1}
+[[joint]]
+name = "B"
+position_m = [1.0, 0.0, 0.0]
+mass_kg = {m2}
+[[element]]
+type = "support"
+name = "A_yz"
+joints = ["A"]
+fix = "yz"
+[[element]]
+type = "support"
+name = "B_yz"
+joints = ["B"]
+fix = "yz"
+[[element]]
+type = "sleeve"
+name = "latch"
+joints = ["A", "B"]
+lock_length_m = {lock}
+[[cable]]
+name = "pull"
+path = ["A", "B"]
+tension_n = {f}
+"#
+    )
+}
+
+#[test]
+fn latch_of_two_masses_matches_the_closed_form_whatever_dt() {
+    let (m1, m2, f, lock): (f64, f64, f64, f64) = (0.3, 0.7, 2.0, 0.5);
+    let mu = m1 * m2 / (m1 + m2);
+    let travel = 1.0 - lock;
+    let t_exact = (2.0 * travel * mu / f).sqrt();
+    let u = (2.0 * f * travel / mu).sqrt(); // closing speed at the latch
+    for dt in [0.1, 0.05, 0.0371, 0.013] {
+        let model = parse(&two_mass_model(m1, m2, f, lock), "two.toml")
+            .unwrap()
+            .model;
+        let mut sim = Simulator::new(model, Options::default()).unwrap();
+        let (vb_before, mut vb_after) = (std::cell::Cell::new(0.0), 0.0);
+        while sim.state().locks.is_empty() {
+            vb_before.set(sim.state().v[3]);
+            sim.step(dt).unwrap();
+            vb_after = sim.state().v[3];
+        }
+        let _ = vb_after;
+        let ev = &sim.state().locks[0];
+        let s = sim.state();
+        let len = (s.x[3] - s.x[0]).abs();
+        assert!(
+            (len - lock).abs() <= 1e-9,
+            "dt {dt}: latched at length {len}"
+        );
+        assert!(
+            (ev.time_s - t_exact).abs() <= 1e-9,
+            "dt {dt}: latch at {} vs {t_exact}",
+            ev.time_s
+        );
+        assert!(
+            (ev.impulse_ns - mu * u).abs() <= 1e-9 * mu * u,
+            "impulse {} vs {}",
+            ev.impulse_ns,
+            mu * u
+        );
+        assert!(
+            (ev.energy_lost_j - f * travel).abs() <= 1e-9 * f * travel,
+            "energy lost {} vs {}",
+            ev.energy_lost_j,
+            f * travel
+        );
+        assert!((ev.closing_speed_m_s.abs() - u).abs() <= 1e-9 * u);
+    }
+}
+
+#[test]
+fn latch_impulse_equals_the_momentum_jump() {
+    let (m1, m2, f, lock): (f64, f64, f64, f64) = (0.3, 0.7, 2.0, 0.5);
+    let model = parse(&two_mass_model(m1, m2, f, lock), "two.toml")
+        .unwrap()
+        .model;
+    let mut sim = Simulator::new(model, Options::default()).unwrap();
+    // Step with a dt that lands exactly on the latch only by accident: the latch is
+    // inside the step; compare the momentum of B just before the latch (from the
+    // constant-force motion) with just after (both masses stop: total momentum 0).
+    let mu = m1 * m2 / (m1 + m2);
+    let t_exact = (2.0 * (1.0 - lock) * mu / f).sqrt();
+    let vb_before = -f / m2 * t_exact; // B accelerates toward A
+    while sim.state().locks.is_empty() {
+        sim.step(0.05).unwrap();
+    }
+    let ev = sim.state().locks[0].clone();
+    // After the latch both masses move together; total momentum stays zero.
+    let s = sim.state();
+    let (va, vb) = (s.v[0], s.v[3]);
+    assert!((m1 * va + m2 * vb).abs() < 1e-12);
+    // the cable keeps pulling after the latch but the sleeve holds: no relative motion
+    assert!((va - vb).abs() < 1e-12);
+    let jump_b = m2 * (vb - vb_before).abs();
+    assert!(
+        (jump_b - ev.impulse_ns).abs() <= 1e-9 * ev.impulse_ns,
+        "momentum jump {jump_b} vs impulse {}",
+        ev.impulse_ns
+    );
+}
+
+#[test]
+fn deploy_time_is_independent_of_dt_to_1e_3() {
+    let p = MastParams::default();
+    let mut a = mast_sim(&p);
+    let mut b = mast_sim(&p);
+    run_to_deploy(&mut a, 0.05, 1e4);
+    run_to_deploy(&mut b, 0.01, 1e4);
+    let (ta, tb) = (
+        a.state().deploy_time_s.unwrap(),
+        b.state().deploy_time_s.unwrap(),
+    );
+    assert!((ta - tb).abs() / tb < 1e-3, "{ta} vs {tb}");
+    let (ea, eb) = (
+        a.state().final_error_rel(a.model()).unwrap(),
+        b.state().final_error_rel(b.model()).unwrap(),
+    );
+    assert!(ea <= 1e-6 && eb <= 1e-6, "final errors {ea:e} {eb:e}");
+}
+
+#[test]
+fn zero_tension_leaves_the_truss_at_rest() {
+    let mut sim = mast_sim(&MastParams {
+        tension_n: 0.0,
+        ..MastParams::default()
+    });
+    let x0 = sim.state().x.clone();
+    for _ in 0..50 {
+        sim.step(0.05).unwrap();
+    }
+    let moved = sim
+        .state()
+        .x
+        .iter()
+        .zip(&x0)
+        .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+    assert!(moved < 1e-12, "moved {moved}");
+    assert_eq!(sim.state().energy.motor_work_j, 0.0);
+}
+
+#[test]
+fn cable_command_changes_take_effect_and_are_validated() {
+    let mut sim = mast_sim(&MastParams::default());
+    assert!(sim.set_cable_tension(0, -1.0).is_err());
+    assert!(sim.set_cable_tension(0, f64::NAN).is_err());
+    assert!(sim.set_cable_tension(0, 1e9).is_err());
+    assert!(sim.set_cable_tension(7, 0.1).is_err());
+    sim.set_cable_tension(0, 0.0).unwrap();
+    for _ in 0..20 {
+        sim.step(0.05).unwrap();
+    }
+    assert_eq!(
+        sim.state().energy.motor_work_j,
+        0.0,
+        "zero tension does no work"
+    );
+    sim.set_cable_tension(0, 0.5).unwrap();
+    sim.step(0.05).unwrap();
+    assert!(sim.state().energy.motor_work_j > 0.0);
+}
+
+#[test]
+fn reset_returns_to_the_initial_state() {
+    let mut sim = mast_sim(&MastParams::default());
+    let x0 = sim.state().x.clone();
+    for _ in 0..30 {
+        sim.step(0.05).unwrap();
+    }
+    sim.reset().unwrap();
+    assert_eq!(sim.state().t_s, 0.0);
+    assert_eq!(sim.state().x, x0);
+    assert!(sim.state().locks.is_empty());
+}
