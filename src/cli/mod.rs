@@ -45,17 +45,26 @@ struct AnalyzeArgs {
 #[derive(Clone, Copy, Debug, ValueEnum)]
 enum Kind {
     Mast,
+    Ring,
+    Sail,
 }
 
 #[derive(Args, Debug)]
 struct GenerateArgs {
-    /// What to generate: `mast` (pantograph mast of any number of units).
+    /// What to generate: `mast` (pantograph mast, 1-500 units), `ring` (double-ring truss,
+    /// 6-360 sides), `sail` (sail array, 1-100 bays).
     kind: Kind,
     #[arg(short = 'o', long = "output")]
     output: PathBuf,
     /// mast: number of scissor units (1 to 500).
     #[arg(long, default_value_t = generate::MastParams::default().units)]
     units: usize,
+    /// ring: number of sides (6 to 360).
+    #[arg(long, default_value_t = generate::ring::RingParams::default().sides)]
+    sides: usize,
+    /// sail: number of bays (1 to 100).
+    #[arg(long, default_value_t = generate::sail::SailParams::default().bays)]
+    bays: usize,
     /// mast: scissor rod length (m).
     #[arg(long)]
     rod_length_m: Option<f64>,
@@ -280,6 +289,28 @@ fn generate_cmd(a: GenerateArgs) -> Result<(), Failure> {
                 ..d
             };
             generate::mast(&p).map_err(Failure::input)?
+        }
+        Kind::Ring => {
+            let d = generate::ring::RingParams::default();
+            let p = generate::ring::RingParams {
+                sides: a.sides,
+                tension_n: a.tension_n.unwrap_or(d.tension_n),
+                friction_mu: a.mu.unwrap_or(d.friction_mu),
+                damping_n_s_per_m: a.damping.unwrap_or(d.damping_n_s_per_m),
+                ..d
+            };
+            generate::ring::ring(&p).map_err(Failure::input)?
+        }
+        Kind::Sail => {
+            let d = generate::sail::SailParams::default();
+            let p = generate::sail::SailParams {
+                bays: a.bays,
+                tension_n: a.tension_n.unwrap_or(d.tension_n),
+                friction_mu: a.mu.unwrap_or(d.friction_mu),
+                damping_n_s_per_m: a.damping.unwrap_or(d.damping_n_s_per_m),
+                ..d
+            };
+            generate::sail::sail(&p).map_err(Failure::input)?
         }
     };
     let text = doc.to_toml();

@@ -183,3 +183,6 @@ pub fn mast(p: &MastParams) -> Result<ModelDoc, String> {
         }],
     })
 }
+
+pub mod ring;
+pub mod sail;
