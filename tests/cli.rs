@@ -408,7 +408,6 @@ fn help_and_version_exit_zero() {
 /// BUG (src/cli/mod.rs `bench`): `bench --steps 0` indexes `times[0]` of an
 /// empty vector and panics (exit 101) instead of rejecting the input with exit 2.
 #[test]
-#[ignore = "src bug: `bench --steps 0` panics (index out of bounds in cli::bench)"]
 fn bench_with_zero_steps_is_an_input_error() {
     let o = run(&[
         "bench".as_ref(),
@@ -423,7 +422,6 @@ fn bench_with_zero_steps_is_an_input_error() {
 /// (with a tip to write `-- -1`, which would not help); it should say that
 /// --dt must be a positive number of seconds.
 #[test]
-#[ignore = "src issue: `--dt -1` gets clap's 'unexpected argument' instead of the --dt check"]
 fn negative_dt_message_names_the_option() {
     let o = run(&[
         "simulate".as_ref(),

@@ -66,19 +66,19 @@ struct GenerateArgs {
     #[arg(long, default_value_t = generate::sail::SailParams::default().bays)]
     bays: usize,
     /// mast: scissor rod length (m).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     rod_length_m: Option<f64>,
     /// Lumped mass per joint (kg).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     joint_mass_kg: Option<f64>,
     /// Constant motor tension of each drive cable (N).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     tension_n: Option<f64>,
     /// Cable-pulley friction coefficient.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     mu: Option<f64>,
     /// Viscous damping per joint (N s/m).
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     damping: Option<f64>,
 }
 
@@ -340,6 +340,9 @@ struct BenchJson {
 }
 
 fn bench(a: BenchArgs) -> Result<(), Failure> {
+    if a.steps == 0 {
+        return Err(Failure::input("--steps 0: time at least one step"));
+    }
     let mut sim = make_simulator(&a.model, a.solver.into())?;
     let dt = sim.model().dt_s;
     let mut times = Vec::with_capacity(a.steps);

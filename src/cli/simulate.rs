@@ -13,10 +13,10 @@ use std::time::Instant;
 pub struct SimulateArgs {
     model: PathBuf,
     /// Time step (s); default: the model's `dt_s`.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     dt: Option<f64>,
     /// Stop at this simulation time (s) even if not deployed; default: the model's `end_time_s`.
-    #[arg(long)]
+    #[arg(long, allow_negative_numbers = true)]
     until: Option<f64>,
     /// Write every joint coordinate against time.
     #[arg(long)]

@@ -280,6 +280,12 @@ pub fn parse(text: &str, file: &str) -> Result<LoadedModel, ModelFileError> {
     for es in &spec.elements {
         let e = es.get_ref();
         let whose = format!("element `{}`", e.name.get_ref());
+        if e.name.get_ref().is_empty() {
+            return Err(err(
+                Some(e.name.span()),
+                "an element has an empty name; give every element a unique name".into(),
+            ));
+        }
         if element_names.insert(e.name.get_ref().clone(), ()).is_some() {
             return Err(err(
                 Some(e.name.span()),
@@ -330,6 +336,16 @@ pub fn parse(text: &str, file: &str) -> Result<LoadedModel, ModelFileError> {
     for cs in &spec.cables {
         let c = cs.get_ref();
         let whose = format!("cable `{}`", c.name.get_ref());
+        if c.name.get_ref().is_empty() || cables.iter().any(|k: &Cable| &k.name == c.name.get_ref())
+        {
+            return Err(err(
+                Some(c.name.span()),
+                format!(
+                    "cable name `{}` is empty or used twice; give every cable a unique name",
+                    c.name.get_ref()
+                ),
+            ));
+        }
         if c.path.get_ref().len() < 2 {
             return Err(err(
                 Some(c.path.span()),

@@ -12,7 +12,13 @@ pub struct RingParams {
 
 impl Default for RingParams {
     fn default() -> Self {
-        RingParams { sides: 18, tension_n: 15.0, friction_mu: 0.005, damping_n_s_per_m: 0.0, dt_s: 0.05 }
+        RingParams {
+            sides: 18,
+            tension_n: 15.0,
+            friction_mu: 0.005,
+            damping_n_s_per_m: 0.0,
+            dt_s: 0.05,
+        }
     }
 }
 

@@ -13,7 +13,13 @@ pub struct SailParams {
 
 impl Default for SailParams {
     fn default() -> Self {
-        SailParams { bays: 4, tension_n: 10.0, friction_mu: 0.005, damping_n_s_per_m: 0.0, dt_s: 0.05 }
+        SailParams {
+            bays: 4,
+            tension_n: 10.0,
+            friction_mu: 0.005,
+            damping_n_s_per_m: 0.0,
+            dt_s: 0.05,
+        }
     }
 }
 
