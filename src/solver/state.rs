@@ -94,6 +94,21 @@ impl State {
             .fold(0.0, f64::max);
         Some(worst / size)
     }
+    /// Progress of the deployment in [0, 1]: 1 - d(t)/d(0), with d the RMS distance of
+    /// the joints from the reference deployed geometry; without a reference, the
+    /// fraction of latches engaged.
+    pub fn deploy_fraction(&self, model: &Model) -> f64 {
+        let Some(r) = model.reference.as_ref() else {
+            return if model.locks.is_empty() { 0.0 } else { self.locks_engaged(model) as f64 / model.locks.len() as f64 };
+        };
+        let rms = |x: &[f64]| (x.iter().zip(r).map(|(a, b)| (a - b).powi(2)).sum::<f64>() / x.len().max(1) as f64).sqrt();
+        let d0 = rms(&model.x0);
+        if d0 == 0.0 {
+            return 1.0;
+        }
+        (1.0 - rms(&self.x) / d0).clamp(0.0, 1.0)
+    }
+
     pub fn locks_engaged(&self, model: &Model) -> usize {
         model.locks.iter().filter(|&&e| self.locked[e]).count()
     }
