@@ -239,6 +239,19 @@ fn plate_fixture(formulation: Option<&'static str>) -> Fixture {
     }
 }
 
+fn coplanar_fixture() -> Fixture {
+    let p = flat_square();
+    let idx = [2, 0, 3, 1];
+    let placed: Vec<(usize, [f64; 3])> = idx.iter().copied().zip(p).collect();
+    let x0 = layout(5, &placed);
+    Fixture {
+        label: "coplanar",
+        spec: spec("coplanar", &idx, &[]),
+        x0,
+        size: 1.0,
+    }
+}
+
 fn support_fixture(fix: &'static str) -> Fixture {
     let x0 = layout(3, &[(1, [0.4, -0.7, 1.1])]);
     Fixture {
@@ -259,6 +272,7 @@ fn all_fixtures() -> Vec<Fixture> {
         angulated_fixture(),
         plate_fixture(None),
         plate_fixture(Some("six_bars")),
+        coplanar_fixture(),
         support_fixture("xz"),
         support_fixture("xyz"),
     ]
@@ -492,6 +506,7 @@ fn row_counts_match_the_documented_element_rows() {
         ("angulated_scissor", 8),
         ("plate flat", 6),
         ("plate six_bars", 6),
+        ("coplanar", 1),
     ];
     let fixtures = all_fixtures();
     for (label, n) in expected {

@@ -14,6 +14,7 @@ use std::fmt;
 
 pub mod angulated_scissor;
 pub mod bar;
+pub mod coplanar;
 pub mod plate;
 pub mod scissor;
 pub mod sleeve;
@@ -149,6 +150,11 @@ pub const REGISTRY: &[(&str, &str, Builder)] = &[
         "plate",
         "rigid plate on 4 corner joints (5 bars + coplanarity, full rank when flat)",
         plate::build,
+    ),
+    (
+        "coplanar",
+        "keeps 4 joints in one plane (1 row)",
+        coplanar::build,
     ),
     (
         "support",
