@@ -1,0 +1,698 @@
+//! The ROS 2 node (feature `ros`): steps the [`Simulator`] in real time and
+//! publishes over DDS with ros2-client on a tokio current_thread runtime.
+//! Topics, types and QoS follow docs/DESIGN.md "ROS 2 interface"; see
+//! launch_notes.md for running it next to a ROS 2 installation.
+
+pub mod commands;
+pub mod controller;
+pub mod msgs;
+pub mod publish;
+
+use crate::solver::{Options, Simulator};
+use clap::{Args, ValueEnum};
+use commands::CommandBook;
+use msgs::*;
+use ros2_client::dds::rustdds::DomainParticipantBuilder;
+use ros2_client::qos::{Durability, History, WhenFull};
+use ros2_client::{
+    Context, MessageTypeName, Name, Node, NodeName, NodeOptions, Publisher, QosProfile, Server,
+    ServiceMapping, ServiceTypeName, Subscription,
+};
+use std::net::Ipv4Addr;
+use std::path::PathBuf;
+use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
+use tokio::time::Instant as TokioInstant;
+
+#[derive(Clone, Copy, Debug, ValueEnum, PartialEq, Eq)]
+pub enum Distro {
+    /// visualization_msgs/Marker with the texture/uv/mesh_file fields (Iron, Jazzy, later).
+    Jazzy,
+    /// visualization_msgs/Marker as in Humble.
+    Humble,
+}
+
+#[derive(Clone, Copy, Debug, ValueEnum, PartialEq, Eq)]
+pub enum Mapping {
+    /// Request id in the payload, as rmw_cyclonedds_cpp does.
+    Cyclone,
+    /// Request id in RTPS inline QoS, as rmw_fastrtps_cpp / Connext do.
+    Enhanced,
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct NodeArgs {
+    /// Model file (TOML).
+    pub model: PathBuf,
+    /// Publish rate of /joint_states, /truss/state and /clock (Hz). Default: one
+    /// publication per simulation step at the chosen --rtf, at most 100 Hz.
+    #[arg(long, allow_negative_numbers = true)]
+    pub rate: Option<f64>,
+    /// Real-time factor: simulated seconds per wall-clock second.
+    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
+    pub rtf: f64,
+    /// Node namespace; topics and services are resolved in it (/clock stays global).
+    #[arg(long, default_value = "/")]
+    pub namespace: String,
+    /// Restrict RustDDS to 127.0.0.1 (also: env TRUSS_DDS_LOOPBACK=1).
+    #[arg(long)]
+    pub loopback: bool,
+    /// Stop by itself after this many wall-clock seconds.
+    #[arg(long, allow_negative_numbers = true)]
+    pub max_wall_s: Option<f64>,
+    /// Frame of headers and markers.
+    #[arg(long, default_value = "truss")]
+    pub frame_id: String,
+    /// Layout of visualization_msgs/Marker on /truss/markers.
+    #[arg(long, value_enum, default_value_t = Distro::Jazzy)]
+    pub markers_for: Distro,
+    /// Service mapping of /truss/{reset,pause,resume,step}. Default from
+    /// RMW_IMPLEMENTATION (fastrtps/connext: enhanced), else cyclone.
+    #[arg(long, value_enum)]
+    pub service_mapping: Option<Mapping>,
+    /// Start paused (services resume/step drive it).
+    #[arg(long)]
+    pub paused: bool,
+    /// Write publish-period and command-latency statistics (JSON) here at exit.
+    #[arg(long)]
+    pub timing: Option<PathBuf>,
+}
+
+/// What a run did, for the exit message and tests.
+#[derive(Debug, Default, Clone, serde::Serialize)]
+pub struct RunSummary {
+    pub steps: u64,
+    pub sim_time_s: f64,
+    pub deployed: bool,
+    pub publications: u64,
+    pub accepted_commands: u32,
+    pub rejected_commands: u32,
+    pub overruns: u64,
+    pub stop_reason: String,
+}
+
+/// Domain id from ROS_DOMAIN_ID (ros2-client itself ignores it).
+pub fn domain_id_from_env() -> Result<u16, String> {
+    match std::env::var("ROS_DOMAIN_ID") {
+        Err(_) => Ok(0),
+        Ok(s) if s.trim().is_empty() => Ok(0),
+        Ok(s) => match s.trim().parse::<u16>() {
+            Ok(d) if d <= 232 => Ok(d),
+            _ => Err(format!("ROS_DOMAIN_ID `{s}` must be an integer 0..=232")),
+        },
+    }
+}
+
+pub fn loopback_from_env() -> bool {
+    matches!(
+        std::env::var("TRUSS_DDS_LOOPBACK").as_deref(),
+        Ok("1") | Ok("true")
+    )
+}
+
+/// A ros2-client context on ROS_DOMAIN_ID, optionally on 127.0.0.1 only.
+pub fn make_context(loopback: bool) -> Result<Context, String> {
+    let domain = domain_id_from_env()?;
+    let mut b = DomainParticipantBuilder::new(domain);
+    if loopback || loopback_from_env() {
+        b = b.with_only_networks([Ipv4Addr::LOCALHOST]);
+    }
+    let dp = b
+        .build()
+        .map_err(|e| format!("DDS participant on domain {domain}: {e:?}"))?;
+    Context::from_domain_participant(dp).map_err(|e| format!("ROS context: {e:?}"))
+}
+
+/// Normalized absolute namespace: "/" or "/a/b".
+pub fn normalize_namespace(ns: &str) -> Result<String, String> {
+    let parts: Vec<&str> = ns.split('/').filter(|p| !p.is_empty()).collect();
+    for p in &parts {
+        let ok = p.starts_with(|c: char| c.is_ascii_alphabetic() || c == '_')
+            && p.chars().all(|c| c.is_ascii_alphanumeric() || c == '_')
+            && !p.contains("__");
+        if !ok {
+            return Err(format!("namespace `{ns}`: bad token `{p}`"));
+        }
+    }
+    Ok(format!("/{}", parts.join("/")))
+}
+
+/// `ns` joined with a relative sub-namespace ("" for none).
+pub fn sub_ns(ns: &str, sub: &str) -> String {
+    match (ns == "/", sub.is_empty()) {
+        (true, true) => "/".into(),
+        (true, false) => format!("/{sub}"),
+        (false, true) => ns.into(),
+        (false, false) => format!("{ns}/{sub}"),
+    }
+}
+
+pub fn topic_name(ns: &str, sub: &str, base: &str) -> Result<Name, String> {
+    let n = sub_ns(ns, sub);
+    Name::new(&n, base).map_err(|e| format!("topic name {n}/{base}: {e:?}"))
+}
+
+/// QoS profiles of DESIGN.md "ROS 2 interface".
+pub mod qos {
+    use super::*;
+    /// reliable, volatile, keep last 10 (/joint_states, /truss/state, commands).
+    pub fn reliable10() -> QosProfile {
+        QosProfile::publisher_default()
+            .reliability_reliable(WhenFull::DEFAULT)
+            .durability(Durability::Volatile)
+            .history(History::KeepLast { depth: 10 })
+    }
+    /// reliable, transient local, keep last 1 (/truss/lock_status).
+    pub fn latched() -> QosProfile {
+        QosProfile::publisher_default()
+            .reliability_reliable(WhenFull::DEFAULT)
+            .durability(Durability::TransientLocal)
+            .history(History::KeepLast { depth: 1 })
+    }
+    /// best effort, keep last 1 (/clock).
+    pub fn clock() -> QosProfile {
+        QosProfile::publisher_default()
+            .reliability_best_effort()
+            .durability(Durability::Volatile)
+            .history(History::KeepLast { depth: 1 })
+    }
+    /// reliable, volatile (/truss/markers); keep last 1 since only the newest matters.
+    pub fn markers() -> QosProfile {
+        QosProfile::publisher_default()
+            .reliability_reliable(WhenFull::DEFAULT)
+            .durability(Durability::Volatile)
+            .history(History::KeepLast { depth: 1 })
+    }
+}
+
+fn service_mapping(m: Option<Mapping>) -> ServiceMapping {
+    let m = m.unwrap_or_else(|| {
+        let rmw = std::env::var("RMW_IMPLEMENTATION").unwrap_or_default();
+        if rmw.contains("fastrtps") || rmw.contains("connext") {
+            Mapping::Enhanced
+        } else {
+            Mapping::Cyclone
+        }
+    });
+    match m {
+        Mapping::Cyclone => ServiceMapping::Cyclone,
+        Mapping::Enhanced => ServiceMapping::Enhanced,
+    }
+}
+
+/// Entry point of `truss-deploy node`: a current_thread runtime around [`run`].
+pub fn run_blocking(args: NodeArgs) -> Result<RunSummary, NodeError> {
+    let rt = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .map_err(|e| NodeError::Run(format!("tokio runtime: {e}")))?;
+    rt.block_on(run(args))
+}
+
+#[derive(Debug)]
+pub enum NodeError {
+    /// Bad arguments or model (exit status 2).
+    Input(String),
+    /// DDS or runtime failure (exit status 1).
+    Run(String),
+}
+
+impl std::fmt::Display for NodeError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            NodeError::Input(s) | NodeError::Run(s) => f.write_str(s),
+        }
+    }
+}
+
+type Trigger = Server<TriggerRequest, TriggerResponse>;
+
+struct Endpoints {
+    js: Publisher<JointState>,
+    state: Publisher<TrussState>,
+    lock: Publisher<LockStatus>,
+    clock: Publisher<Clock>,
+    markers: publish::MarkerPub,
+    cmd: Subscription<CableForceCommand>,
+    srv: [Trigger; 4],
+}
+
+const SRV_NAMES: [&str; 4] = ["reset", "pause", "resume", "step"];
+
+fn create_endpoints(node: &mut Node, ns: &str, a: &NodeArgs) -> Result<Endpoints, String> {
+    let e = |what: &str, err: &dyn std::fmt::Debug| format!("create {what}: {err:?}");
+    // /clock first: the spinner creates its own rt/clock reader (see launch_notes.md).
+    let clock_t = node
+        .create_topic(
+            &Name::new("/", "clock").map_err(|x| e("clock", &x))?,
+            MessageTypeName::new("rosgraph_msgs", "Clock"),
+            &qos::clock(),
+        )
+        .map_err(|x| e("clock", &x))?;
+    let clock = node
+        .create_publisher::<Clock>(&clock_t, None)
+        .map_err(|x| e("clock", &x))?;
+    let js_t = node
+        .create_topic(
+            &topic_name(ns, "", "joint_states")?,
+            MessageTypeName::new("sensor_msgs", "JointState"),
+            &qos::reliable10(),
+        )
+        .map_err(|x| e("joint_states", &x))?;
+    let js = node
+        .create_publisher::<JointState>(&js_t, None)
+        .map_err(|x| e("joint_states", &x))?;
+    let st_t = node
+        .create_topic(
+            &topic_name(ns, "truss", "state")?,
+            MessageTypeName::new("truss_deploy", "TrussState"),
+            &qos::reliable10(),
+        )
+        .map_err(|x| e("state", &x))?;
+    let state = node
+        .create_publisher::<TrussState>(&st_t, None)
+        .map_err(|x| e("state", &x))?;
+    let lock_t = node
+        .create_topic(
+            &topic_name(ns, "truss", "lock_status")?,
+            MessageTypeName::new("truss_deploy", "LockStatus"),
+            &qos::latched(),
+        )
+        .map_err(|x| e("lock_status", &x))?;
+    let lock = node
+        .create_publisher::<LockStatus>(&lock_t, None)
+        .map_err(|x| e("lock_status", &x))?;
+    let markers =
+        publish::MarkerPub::new(node, &topic_name(ns, "truss", "markers")?, a.markers_for)?;
+    let cmd_t = node
+        .create_topic(
+            &topic_name(ns, "truss", "cable_force_cmd")?,
+            MessageTypeName::new("truss_deploy", "CableForceCommand"),
+            &qos::reliable10(),
+        )
+        .map_err(|x| e("cable_force_cmd", &x))?;
+    let cmd = node
+        .create_subscription::<CableForceCommand>(&cmd_t, None)
+        .map_err(|x| e("cable_force_cmd", &x))?;
+    let mapping = service_mapping(a.service_mapping);
+    let mk = |node: &mut Node, base: &str| -> Result<Trigger, String> {
+        node.create_server::<TriggerRequest, TriggerResponse>(
+            mapping,
+            &topic_name(ns, "truss", base)?,
+            &ServiceTypeName::new("std_srvs", "Trigger"),
+            qos::reliable10(),
+            qos::reliable10(),
+        )
+        .map_err(|x| e(base, &x))
+    };
+    let srv = [
+        mk(node, SRV_NAMES[0])?,
+        mk(node, SRV_NAMES[1])?,
+        mk(node, SRV_NAMES[2])?,
+        mk(node, SRV_NAMES[3])?,
+    ];
+    Ok(Endpoints {
+        js,
+        state,
+        lock,
+        clock,
+        markers,
+        cmd,
+        srv,
+    })
+}
+
+/// Timing records for `--timing`.
+#[derive(Default)]
+struct Timing {
+    publish_at: Vec<Instant>,
+    /// (source timestamp -> start of the step that used it, s), (take -> step, s)
+    cmd_latency_s: Vec<(f64, f64)>,
+}
+
+const MAX_TIMING_RECORDS: usize = 2_000_000;
+const MAX_CMDS_PER_WAKE: usize = 100_000;
+const MAX_REQS_PER_WAKE: usize = 64;
+const MAX_CATCHUP_STEPS: usize = 50;
+
+fn unix_now_ns() -> i64 {
+    SystemTime::now()
+        .duration_since(UNIX_EPOCH)
+        .map(|d| d.as_nanos() as i64)
+        .unwrap_or(0)
+}
+
+/// Runs the node until SIGINT/SIGTERM or --max-wall-s.
+pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
+    let input = NodeError::Input;
+    if !(a.rtf.is_finite() && a.rtf > 0.0 && a.rtf <= 1000.0) {
+        return Err(input(format!("--rtf {} must be in (0, 1000]", a.rtf)));
+    }
+    if let Some(r) = a.rate {
+        if !(r.is_finite() && r > 0.0 && r <= 1000.0) {
+            return Err(input(format!("--rate {r} must be in (0, 1000] Hz")));
+        }
+    }
+    if let Some(m) = a.max_wall_s {
+        if !(m.is_finite() && m > 0.0) {
+            return Err(input(format!("--max-wall-s {m} must be positive")));
+        }
+    }
+    let ns = normalize_namespace(&a.namespace).map_err(input)?;
+    let loaded = crate::model::load(&a.model).map_err(|e| input(e.to_string()))?;
+    let mut sim = Simulator::new(loaded.model, Options::default())
+        .map_err(|e| input(format!("{}: {e}", a.model.display())))?;
+    let dt = sim.model().dt_s;
+    let rate = a.rate.unwrap_or((a.rtf / dt).min(100.0));
+    let pub_period = Duration::from_secs_f64(1.0 / rate);
+    let view = publish::View::new(sim.model());
+
+    let context = make_context(a.loopback).map_err(NodeError::Run)?;
+    let mut node = context
+        .new_node(
+            NodeName::new(&ns, "truss_deploy").map_err(|e| input(format!("node name: {e:?}")))?,
+            NodeOptions::new().enable_rosout(true),
+        )
+        .map_err(|e| NodeError::Run(format!("node: {e:?}")))?;
+    let ep = create_endpoints(&mut node, &ns, &a).map_err(NodeError::Run)?;
+    let spinner = node
+        .spinner()
+        .map_err(|e| NodeError::Run(format!("spinner: {e:?}")))?;
+    let spin = tokio::spawn(spinner.spin());
+    println!(
+        "truss_deploy: node {} on ROS domain {}{}; model {} ({} joints, {} cables), dt {} s, rtf {}, publishing at {:.3} Hz",
+        node.fully_qualified_name(),
+        node.domain_id(),
+        if a.loopback || loopback_from_env() { " (loopback only)" } else { "" },
+        sim.model().name,
+        sim.model().n_joints(),
+        sim.model().cables.len(),
+        dt,
+        a.rtf,
+        rate
+    );
+
+    let mut sigterm = tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate())
+        .map_err(|e| NodeError::Run(format!("SIGTERM handler: {e}")))?;
+    let mut sigint = tokio::signal::unix::signal(tokio::signal::unix::SignalKind::interrupt())
+        .map_err(|e| NodeError::Run(format!("SIGINT handler: {e}")))?;
+
+    let start = Instant::now();
+    let deadline = a.max_wall_s.map(|s| start + Duration::from_secs_f64(s));
+    let mut book = CommandBook::default();
+    let mut paused = a.paused;
+    // Sim time target = anchor_sim + rtf * (now - anchor_wall).
+    let mut anchor_wall = start;
+    let mut anchor_sim = sim.state().t_s;
+    let mut next_pub = start;
+    let mut next_lock = start;
+    let marker_period = Duration::from_millis(200);
+    let mut next_marker = start;
+    let mut pending: Option<(Vec<(usize, f64)>, i64, Instant)> = None;
+    let mut step_error_logged = false;
+    let mut lock_dirty = true;
+    let mut summary = RunSummary::default();
+    let mut timing = a.timing.as_ref().map(|_| Timing::default());
+    let mut last_lock_key: Option<Vec<u8>> = None;
+
+    let stop_reason: String = loop {
+        let now = Instant::now();
+        if deadline.is_some_and(|d| now >= d) {
+            break "max wall time".into();
+        }
+        // 1. Commands: drain everything pending (the reader keeps at most its
+        //    QoS depth), validate each, keep the last valid one.
+        for _ in 0..MAX_CMDS_PER_WAKE {
+            match ep.cmd.take() {
+                Ok(Some((cmd, info))) => {
+                    let (ok, log) = book.check(&cmd, sim.model());
+                    if let Some(l) = log {
+                        eprintln!("truss_deploy: {l}");
+                    }
+                    if let Some(v) = ok {
+                        let src = info.source_timestamp().map(|t| t.to_nanos()).unwrap_or(0);
+                        pending = Some((v, src, Instant::now()));
+                    }
+                    lock_dirty = true;
+                }
+                Ok(None) => break,
+                Err(e) => {
+                    eprintln!("truss_deploy: command read error {e:?}");
+                    break;
+                }
+            }
+        }
+        // 2. Services.
+        let mut want_step = false;
+        for (k, srv) in ep.srv.iter().enumerate() {
+            for _ in 0..MAX_REQS_PER_WAKE {
+                let Ok(Some((id, _req))) = srv.receive_request() else {
+                    break;
+                };
+                let (success, message) = match SRV_NAMES[k] {
+                    "reset" => match sim.reset() {
+                        Ok(()) => {
+                            pending = None;
+                            anchor_wall = Instant::now();
+                            anchor_sim = sim.state().t_s;
+                            step_error_logged = false;
+                            (
+                                true,
+                                "reset to t = 0 with the model's cable tensions".to_string(),
+                            )
+                        }
+                        Err(e) => (false, format!("reset failed: {e}")),
+                    },
+                    "pause" => {
+                        paused = true;
+                        (true, format!("paused at t = {:.3} s", sim.state().t_s))
+                    }
+                    "resume" => {
+                        paused = false;
+                        anchor_wall = Instant::now();
+                        anchor_sim = sim.state().t_s;
+                        (true, format!("running from t = {:.3} s", sim.state().t_s))
+                    }
+                    _ => {
+                        paused = true;
+                        want_step = true;
+                        (
+                            true,
+                            format!(
+                                "one step of {dt} s from t = {:.3} s; paused",
+                                sim.state().t_s
+                            ),
+                        )
+                    }
+                };
+                lock_dirty = true;
+                if let Err(e) = srv.send_response(id, TriggerResponse { success, message }) {
+                    eprintln!("truss_deploy: service {} response: {e:?}", SRV_NAMES[k]);
+                }
+            }
+        }
+        // 3. Stepping in real time.
+        let now = Instant::now();
+        let target = anchor_sim + a.rtf * now.duration_since(anchor_wall).as_secs_f64();
+        let mut n = 0;
+        while !sim.state().deployed
+            && !step_error_logged
+            && ((want_step && n == 0) || (!paused && sim.state().t_s + 0.5 * dt <= target))
+            && n < MAX_CATCHUP_STEPS
+        {
+            if let Some((cmd, src_ns, taken)) = pending.take() {
+                for (c, t) in cmd {
+                    // validated against the same model: cannot fail
+                    let _ = sim.set_cable_tension(c, t);
+                }
+                if let Some(tm) = timing.as_mut() {
+                    if tm.cmd_latency_s.len() < MAX_TIMING_RECORDS {
+                        let lat = if src_ns > 0 {
+                            (unix_now_ns() - src_ns) as f64 * 1e-9
+                        } else {
+                            f64::NAN
+                        };
+                        tm.cmd_latency_s.push((lat, taken.elapsed().as_secs_f64()));
+                    }
+                }
+            }
+            match sim.step(dt) {
+                Ok(ev) => {
+                    if ev > 0 {
+                        lock_dirty = true;
+                    }
+                }
+                Err(e) => {
+                    eprintln!(
+                        "truss_deploy: step failed at t = {:.4} s: {e}; holding the last state (reset to continue)",
+                        sim.state().t_s
+                    );
+                    step_error_logged = true;
+                    lock_dirty = true;
+                }
+            }
+            n += 1;
+            summary.steps += 1;
+            if sim.state().deployed {
+                println!(
+                    "truss_deploy: fully deployed at t = {:.3} s; holding the final state",
+                    sim.state().t_s
+                );
+                lock_dirty = true;
+            }
+        }
+        if n == MAX_CATCHUP_STEPS {
+            // Too far behind: drop the debt instead of spiralling.
+            summary.overruns += 1;
+            anchor_wall = Instant::now();
+            anchor_sim = sim.state().t_s;
+        }
+        // 4. Publications.
+        let now = Instant::now();
+        let stamp = sim_stamp(sim.state().t_s);
+        if lock_dirty || now >= next_lock {
+            let msg = view.lock_status(&sim, &book, paused, stamp, &a.frame_id);
+            // Publish on change (anything but the stamp) and at 1 Hz.
+            let key = publish::lock_key(&msg);
+            if now >= next_lock || last_lock_key.as_ref() != Some(&key) {
+                if let Err(e) = ep.lock.publish(msg) {
+                    eprintln!("truss_deploy: lock_status publish: {e:?}");
+                }
+                last_lock_key = Some(key);
+                next_lock = now + Duration::from_secs(1);
+            }
+            lock_dirty = false;
+        }
+        if now >= next_pub {
+            let _ = ep.clock.publish(Clock { clock: stamp });
+            let _ = ep.js.publish(view.joint_state(&sim, stamp, &a.frame_id));
+            let _ = ep.state.publish(view.truss_state(&sim, stamp, &a.frame_id));
+            summary.publications += 1;
+            if let Some(tm) = timing.as_mut() {
+                if tm.publish_at.len() < MAX_TIMING_RECORDS {
+                    tm.publish_at.push(now);
+                }
+            }
+            next_pub += pub_period;
+            if next_pub + pub_period < now {
+                next_pub = now + pub_period; // fell behind: skip, do not burst
+            }
+        }
+        if now >= next_marker {
+            ep.markers.publish(&view, &sim, stamp, &a.frame_id);
+            next_marker = now + marker_period;
+        }
+        // 5. Sleep until the next thing to do.
+        let mut wake = next_pub.min(next_lock).min(next_marker);
+        if !paused && !sim.state().deployed && !step_error_logged {
+            let due = anchor_wall
+                + Duration::from_secs_f64(((sim.state().t_s + dt - anchor_sim) / a.rtf).max(0.0));
+            wake = wake.min(due);
+        }
+        if let Some(d) = deadline {
+            wake = wake.min(d);
+        }
+        // Services are polled at least every 20 ms.
+        wake = wake.min(Instant::now() + Duration::from_millis(20));
+        let sleep = tokio::time::sleep_until(TokioInstant::from_std(wake));
+        tokio::select! {
+            _ = sleep => {}
+            _ = sigint.recv() => break "SIGINT".into(),
+            _ = sigterm.recv() => break "SIGTERM".into(),
+        }
+        // Tokio timers have 1 ms granularity: finish the last stretch precisely.
+        if let Some(left) = wake.checked_duration_since(Instant::now()) {
+            if left < Duration::from_millis(2) {
+                while Instant::now() < wake {
+                    std::hint::spin_loop();
+                }
+            }
+        }
+    };
+
+    summary.sim_time_s = sim.state().t_s;
+    summary.deployed = sim.state().deployed;
+    summary.accepted_commands = book.accepted;
+    summary.rejected_commands = book.rejected;
+    summary.stop_reason = stop_reason;
+    // Final lock status so late joiners see the end state.
+    let _ = ep.lock.publish(view.lock_status(
+        &sim,
+        &book,
+        paused,
+        sim_stamp(sim.state().t_s),
+        &a.frame_id,
+    ));
+    if let (Some(path), Some(tm)) = (a.timing.as_ref(), timing.as_ref()) {
+        let report = timing_report(tm, pub_period.as_secs_f64(), rate, dt, &a);
+        if let Err(e) = std::fs::write(path, serde_json::to_string_pretty(&report).unwrap() + "\n")
+        {
+            eprintln!("truss_deploy: cannot write {}: {e}", path.display());
+        }
+    }
+    // Clean shutdown: endpoints, spinner, node, participant (peers see us leave).
+    drop(ep);
+    node.stop_spinner();
+    let _ = tokio::time::timeout(Duration::from_secs(3), spin).await;
+    drop(node);
+    drop(context);
+    println!(
+        "truss_deploy: stopped ({}) after {} steps, t = {:.3} s, deployed {}, commands accepted {} rejected {}, {} publications, {} overruns",
+        summary.stop_reason,
+        summary.steps,
+        summary.sim_time_s,
+        summary.deployed,
+        summary.accepted_commands,
+        summary.rejected_commands,
+        summary.publications,
+        summary.overruns
+    );
+    Ok(summary)
+}
+
+fn percentile(v: &mut [f64], p: f64) -> f64 {
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    v.sort_by(f64::total_cmp);
+    let i = ((p / 100.0) * (v.len() - 1) as f64).round() as usize;
+    v[i.min(v.len() - 1)]
+}
+
+fn timing_report(tm: &Timing, period: f64, rate: f64, dt: f64, a: &NodeArgs) -> serde_json::Value {
+    let mut jitter: Vec<f64> = tm
+        .publish_at
+        .windows(2)
+        .map(|w| (w[1].duration_since(w[0]).as_secs_f64() - period).abs())
+        .collect();
+    let mut e2e: Vec<f64> = tm
+        .cmd_latency_s
+        .iter()
+        .map(|c| c.0)
+        .filter(|x| x.is_finite())
+        .collect();
+    let mut take: Vec<f64> = tm.cmd_latency_s.iter().map(|c| c.1).collect();
+    serde_json::json!({
+        "rate_hz": rate,
+        "rtf": a.rtf,
+        "dt_s": dt,
+        "step_period_wall_s": dt / a.rtf,
+        "publications": tm.publish_at.len(),
+        "publish_period_jitter_s": {
+            "p50": percentile(&mut jitter.clone(), 50.0),
+            "p99": percentile(&mut jitter.clone(), 99.0),
+            "max": percentile(&mut jitter, 100.0),
+        },
+        "commands_applied": tm.cmd_latency_s.len(),
+        "command_to_step_latency_s": {
+            "definition": "sender's DDS source timestamp -> start of the first step using the command",
+            "p50": percentile(&mut e2e.clone(), 50.0),
+            "p99": percentile(&mut e2e.clone(), 99.0),
+            "max": percentile(&mut e2e, 100.0),
+        },
+        "take_to_step_latency_s": {
+            "p50": percentile(&mut take.clone(), 50.0),
+            "p99": percentile(&mut take.clone(), 99.0),
+            "max": percentile(&mut take, 100.0),
+        },
+    })
+}

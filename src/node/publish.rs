@@ -1,0 +1,346 @@
+//! Building the published messages from the simulator state.
+
+use super::commands::CommandBook;
+use super::msgs::*;
+use super::Distro;
+use crate::solver::model::Model;
+use crate::solver::Simulator;
+use ros2_client::builtin_interfaces::Time;
+use ros2_client::{MessageTypeName, Name, Node, Publisher};
+
+#[derive(Clone, Debug)]
+enum MJoint {
+    /// Scissor hinge: rods (i, j) and (k, l).
+    Hinge([usize; 4]),
+    /// Sleeve: element.
+    Slide(usize),
+}
+
+/// Static view of the model: which elements become /joint_states entries and
+/// which joint pairs are drawn as members.
+pub struct View {
+    names: Vec<String>,
+    joints: Vec<MJoint>,
+    joint_names: Vec<String>,
+    /// (joint a, joint b, sleeve element if the member is a sleeve)
+    members: Vec<(usize, usize, Option<usize>)>,
+    lock_names: Vec<String>,
+    cable_names: Vec<String>,
+}
+
+fn angle(x: &[f64], r: &[usize; 4]) -> f64 {
+    let p = |j: usize| [x[3 * j], x[3 * j + 1], x[3 * j + 2]];
+    let (i, j, k, l) = (p(r[0]), p(r[1]), p(r[2]), p(r[3]));
+    let a = [j[0] - i[0], j[1] - i[1], j[2] - i[2]];
+    let b = [l[0] - k[0], l[1] - k[1], l[2] - k[2]];
+    let c = [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ];
+    let cn = (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
+    let d = a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    cn.atan2(d)
+}
+
+impl View {
+    pub fn new(m: &Model) -> View {
+        let mut names = Vec::new();
+        let mut joints = Vec::new();
+        let mut members = Vec::new();
+        for (e, el) in m.elements.iter().enumerate() {
+            let js = el.joints();
+            match el.kind() {
+                "scissor" if js.len() == 4 => {
+                    names.push(el.name().to_string());
+                    joints.push(MJoint::Hinge([js[0], js[1], js[2], js[3]]));
+                    members.push((js[0], js[1], None));
+                    members.push((js[2], js[3], None));
+                }
+                "sleeve" if js.len() == 2 => {
+                    names.push(el.name().to_string());
+                    joints.push(MJoint::Slide(e));
+                    members.push((js[0], js[1], Some(e)));
+                }
+                "angulated_scissor" if js.len() == 5 => {
+                    let o = js[1];
+                    for &q in &[js[0], js[2], js[3], js[4]] {
+                        members.push((q, o, None));
+                    }
+                }
+                "plate" if js.len() == 4 => {
+                    for q in 0..4 {
+                        members.push((js[q], js[(q + 1) % 4], None));
+                    }
+                }
+                "support" => {}
+                _ => {
+                    for w in js.windows(2) {
+                        members.push((w[0], w[1], None));
+                    }
+                }
+            }
+        }
+        View {
+            names,
+            joints,
+            joint_names: m.joints.iter().map(|j| j.name.clone()).collect(),
+            members,
+            lock_names: m
+                .locks
+                .iter()
+                .map(|&e| m.elements[e].name().to_string())
+                .collect(),
+            cable_names: m.cables.iter().map(|c| c.name.clone()).collect(),
+        }
+    }
+
+    /// Names on /joint_states: scissor hinges (revolute) and sleeves (prismatic).
+    pub fn mechanism_joint_names(&self) -> &[String] {
+        &self.names
+    }
+
+    pub fn joint_state(&self, sim: &Simulator, stamp: Time, frame: &str) -> JointState {
+        let (m, s) = (sim.model(), sim.state());
+        let n = self.joints.len();
+        let (mut pos, mut vel, mut eff) = (
+            Vec::with_capacity(n),
+            Vec::with_capacity(n),
+            Vec::with_capacity(n),
+        );
+        let jac = sim.jacobian();
+        for j in &self.joints {
+            match j {
+                MJoint::Hinge(r) => {
+                    let th = angle(&s.x, r);
+                    // d(theta)/dt by a central difference along v
+                    let h = 1e-6;
+                    let xp: Vec<f64> = s.x.iter().zip(&s.v).map(|(x, v)| x + h * v).collect();
+                    let xm: Vec<f64> = s.x.iter().zip(&s.v).map(|(x, v)| x - h * v).collect();
+                    pos.push(th);
+                    vel.push((angle(&xp, r) - angle(&xm, r)) / (2.0 * h));
+                    eff.push(0.0);
+                }
+                MJoint::Slide(e) => {
+                    let (len, rate) = m.elements[*e]
+                        .extension(&s.x, &s.v)
+                        .unwrap_or((f64::NAN, 0.0));
+                    pos.push(len);
+                    vel.push(rate);
+                    let force = if s.locked.get(*e).copied().unwrap_or(false) {
+                        jac.blocks
+                            .iter()
+                            .find(|b| b.element == *e)
+                            .and_then(|b| s.lambda.get(b.row0))
+                            .map(|l| -l)
+                            .unwrap_or(0.0)
+                    } else {
+                        0.0
+                    };
+                    eff.push(force);
+                }
+            }
+        }
+        JointState {
+            header: Header {
+                stamp,
+                frame_id: frame.to_string(),
+            },
+            name: self.names.clone(),
+            position: pos,
+            velocity: vel,
+            effort: eff,
+        }
+    }
+
+    pub fn truss_state(&self, sim: &Simulator, stamp: Time, frame: &str) -> TrussState {
+        let (m, s) = (sim.model(), sim.state());
+        let n = m.n_joints();
+        TrussState {
+            header: Header {
+                stamp,
+                frame_id: frame.to_string(),
+            },
+            joint_names: self.joint_names.clone(),
+            positions: (0..n)
+                .map(|j| Point {
+                    x: s.x[3 * j],
+                    y: s.x[3 * j + 1],
+                    z: s.x[3 * j + 2],
+                })
+                .collect(),
+            velocities: (0..n)
+                .map(|j| Vector3 {
+                    x: s.v[3 * j],
+                    y: s.v[3 * j + 1],
+                    z: s.v[3 * j + 2],
+                })
+                .collect(),
+            deploy_fraction: s.deploy_fraction(m),
+            remaining_dof: s.mechanisms as u32,
+        }
+    }
+
+    pub fn lock_status(
+        &self,
+        sim: &Simulator,
+        book: &CommandBook,
+        paused: bool,
+        stamp: Time,
+        frame: &str,
+    ) -> LockStatus {
+        let (m, s) = (sim.model(), sim.state());
+        let k = m.locks.len();
+        let (mut time_s, mut imp, mut en) = (vec![-1.0; k], vec![0.0; k], vec![0.0; k]);
+        for ev in &s.locks {
+            if let Some(i) = m.locks.iter().position(|&e| e == ev.element) {
+                time_s[i] = ev.time_s;
+                imp[i] = ev.impulse_ns;
+                en[i] = ev.energy_lost_j;
+            }
+        }
+        LockStatus {
+            header: Header {
+                stamp,
+                frame_id: frame.to_string(),
+            },
+            names: self.lock_names.clone(),
+            locked: m.locks.iter().map(|&e| s.locked[e]).collect(),
+            time_s,
+            impulse_ns: imp,
+            energy_lost_j: en,
+            deployed: s.deployed,
+            paused,
+            cable_names: self.cable_names.clone(),
+            cable_tensions_n: s.cable_tension_cmd_n.clone(),
+            accepted_commands: book.accepted,
+            rejected_commands: book.rejected,
+            rejected_unknown_cable: book.unknown_cable,
+            rejected_mismatched_lengths: book.mismatched_lengths,
+            rejected_bad_tension: book.bad_tension,
+        }
+    }
+
+    /// Members as two LINE_LIST markers: free members and latched sleeves.
+    pub fn markers(&self, sim: &Simulator, stamp: Time, frame: &str) -> Vec<MarkerJazzy> {
+        let s = sim.state();
+        let p = |j: usize| Point {
+            x: s.x[3 * j],
+            y: s.x[3 * j + 1],
+            z: s.x[3 * j + 2],
+        };
+        let (mut free, mut latched) = (Vec::new(), Vec::new());
+        for &(a, b, sleeve) in &self.members {
+            let locked = sleeve.is_some_and(|e| s.locked.get(e).copied().unwrap_or(false));
+            let v = if locked { &mut latched } else { &mut free };
+            v.push(p(a));
+            v.push(p(b));
+        }
+        let mk = |id: i32, ns: &str, pts: Vec<Point>, color: ColorRGBA| MarkerJazzy {
+            header: Header {
+                stamp,
+                frame_id: frame.to_string(),
+            },
+            ns: ns.to_string(),
+            id,
+            type_: 5,  // LINE_LIST
+            action: 0, // ADD
+            pose: Pose {
+                position: Point::default(),
+                orientation: Quaternion {
+                    x: 0.0,
+                    y: 0.0,
+                    z: 0.0,
+                    w: 1.0,
+                },
+            },
+            scale: Vector3 {
+                x: 0.01,
+                y: 0.0,
+                z: 0.0,
+            },
+            color,
+            lifetime: RosDuration::default(),
+            frame_locked: false,
+            points: pts,
+            colors: Vec::new(),
+            texture_resource: String::new(),
+            texture: CompressedImage::default(),
+            uv_coordinates: Vec::new(),
+            text: String::new(),
+            mesh_resource: String::new(),
+            mesh_file: MeshFile::default(),
+            mesh_use_embedded_materials: false,
+        };
+        vec![
+            mk(
+                0,
+                "members",
+                free,
+                ColorRGBA {
+                    r: 0.8,
+                    g: 0.8,
+                    b: 0.85,
+                    a: 1.0,
+                },
+            ),
+            mk(
+                1,
+                "latched_sleeves",
+                latched,
+                ColorRGBA {
+                    r: 0.1,
+                    g: 0.9,
+                    b: 0.2,
+                    a: 1.0,
+                },
+            ),
+        ]
+    }
+}
+
+/// A key of everything in LockStatus but the header, to publish on change.
+pub fn lock_key(m: &LockStatus) -> Vec<u8> {
+    let mut k = m.clone();
+    k.header = Header::default();
+    format!("{k:?}").into_bytes()
+}
+
+pub enum MarkerPub {
+    Jazzy(Publisher<MarkerArrayJazzy>),
+    Humble(Publisher<MarkerArrayHumble>),
+}
+
+impl MarkerPub {
+    pub fn new(node: &mut Node, name: &Name, distro: Distro) -> Result<MarkerPub, String> {
+        let t = node
+            .create_topic(
+                name,
+                MessageTypeName::new("visualization_msgs", "MarkerArray"),
+                &super::qos::markers(),
+            )
+            .map_err(|e| format!("create markers: {e:?}"))?;
+        Ok(match distro {
+            Distro::Jazzy => MarkerPub::Jazzy(
+                node.create_publisher(&t, None)
+                    .map_err(|e| format!("create markers: {e:?}"))?,
+            ),
+            Distro::Humble => MarkerPub::Humble(
+                node.create_publisher(&t, None)
+                    .map_err(|e| format!("create markers: {e:?}"))?,
+            ),
+        })
+    }
+
+    pub fn publish(&self, view: &View, sim: &Simulator, stamp: Time, frame: &str) {
+        let m = view.markers(sim, stamp, frame);
+        let _ = match self {
+            MarkerPub::Jazzy(p) => p.publish(MarkerArrayJazzy { markers: m }).map_err(|_| ()),
+            MarkerPub::Humble(p) => p
+                .publish(MarkerArrayHumble {
+                    markers: m.into_iter().map(Into::into).collect(),
+                })
+                .map_err(|_| ()),
+        };
+    }
+}
