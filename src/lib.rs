@@ -6,4 +6,6 @@
 
 pub mod cli;
 pub mod model;
+#[cfg(feature = "ros")]
+pub mod node;
 pub mod solver;

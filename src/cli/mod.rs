@@ -10,6 +10,14 @@ use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
+/// println! that ignores a closed stdout (e.g. `| head`) instead of panicking.
+macro_rules! say {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout(), $($t)*);
+    }};
+}
+
 mod simulate;
 
 #[derive(Parser, Debug)]
@@ -33,6 +41,13 @@ enum Cmd {
     Generate(GenerateArgs),
     /// Time the stepping loop (no I/O).
     Bench(BenchArgs),
+    /// Run the ROS 2 node: step in real time, publish over DDS (see launch_notes.md).
+    #[cfg(feature = "ros")]
+    Node(crate::node::NodeArgs),
+    /// Drive a running node: ease the cable tension as deploy_fraction nears 1
+    /// (`--offline MODEL`: compare with constant tension in-process, no DDS).
+    #[cfg(feature = "ros")]
+    Controller(crate::node::controller::ControllerArgs),
 }
 
 #[derive(Args, Debug)]
@@ -141,6 +156,15 @@ pub fn main() -> i32 {
         Cmd::Analyze(a) => analyze(a),
         Cmd::Generate(a) => generate_cmd(a),
         Cmd::Bench(a) => bench(a),
+        #[cfg(feature = "ros")]
+        Cmd::Node(a) => crate::node::run_blocking(a)
+            .map(|_| ())
+            .map_err(|e| match e {
+                crate::node::NodeError::Input(m) => Failure::input(m),
+                crate::node::NodeError::Run(m) => Failure::run(m),
+            }),
+        #[cfg(feature = "ros")]
+        Cmd::Controller(a) => controller_cmd(a),
     };
     match result {
         Ok(()) => 0,
@@ -210,21 +234,29 @@ fn analyze(a: AnalyzeArgs) -> Result<(), Failure> {
         None => ("initial", m.x0.as_slice()),
     };
     let after = mobility::analyze(m, xl, &all);
-    println!(
+    say!(
         "model {} ({} joints, {} coordinates)",
         m.name,
         m.n_joints(),
         before.coordinates
     );
-    println!(
+    say!(
         "{:<22} {:>8} {:>8} {:>11} {:>12}",
-        "", "rows", "rank", "mechanisms", "self-stress"
+        "",
+        "rows",
+        "rank",
+        "mechanisms",
+        "self-stress"
     );
-    println!(
+    say!(
         "{:<22} {:>8} {:>8} {:>11} {:>12}",
-        "before locks", before.rows, before.rank, before.mechanisms, before.self_stress
+        "before locks",
+        before.rows,
+        before.rank,
+        before.mechanisms,
+        before.self_stress
     );
-    println!(
+    say!(
         "{:<22} {:>8} {:>8} {:>11} {:>12}",
         format!("all locked ({geometry})"),
         after.rows,
@@ -232,16 +264,18 @@ fn analyze(a: AnalyzeArgs) -> Result<(), Failure> {
         after.mechanisms,
         after.self_stress
     );
-    println!("rows per element type (before locks):");
+    say!("rows per element type (before locks):");
     for p in &before.per_element {
-        println!(
+        say!(
             "  {:<18} {:>5} elements {:>6} rows",
-            p.kind, p.elements, p.rows
+            p.kind,
+            p.elements,
+            p.rows
         );
     }
     if !before.redundant_rows.is_empty() {
         let shown: Vec<_> = before.redundant_rows.iter().take(12).cloned().collect();
-        println!(
+        say!(
             "redundant rows (before locks): {}{}",
             shown.join(", "),
             if before.redundant_rows.len() > 12 {
@@ -319,7 +353,7 @@ fn generate_cmd(a: GenerateArgs) -> Result<(), Failure> {
         .map_err(|e| Failure::run(format!("generated model is invalid: {e}")))?;
     std::fs::write(&a.output, text)
         .map_err(|e| Failure::input(format!("cannot write {}: {e}", a.output.display())))?;
-    println!(
+    say!(
         "wrote {} ({} joints, {} elements)",
         a.output.display(),
         doc.joints.len(),
@@ -366,13 +400,46 @@ fn bench(a: BenchArgs) -> Result<(), Failure> {
         dt_s: dt,
         factorizations_per_step: (sim.factorizations() - f0) as f64 / a.steps as f64,
     };
-    println!(
+    say!(
         "{}: solver {}, {} steps, median {:.1} us/step, real-time factor {:.0} at dt {} s",
-        out.model, out.solver, out.steps, out.us_per_step, out.real_time_factor, dt
+        out.model,
+        out.solver,
+        out.steps,
+        out.us_per_step,
+        out.real_time_factor,
+        dt
     );
     if let Some(j) = &a.json {
         write_json(j, &out)?;
     }
     let _ = std::io::stdout().flush();
+    Ok(())
+}
+
+#[cfg(feature = "ros")]
+fn controller_cmd(a: crate::node::controller::ControllerArgs) -> Result<(), Failure> {
+    use crate::node::controller;
+    if let Some(path) = a.offline.clone() {
+        let runs = controller::offline(&path, &a).map_err(Failure::input)?;
+        for r in &runs {
+            say!(
+                "{:<28} deploy time {:>8} s  max latch impulse {:.6e} N s  sum {:.6e} N s  latch energy lost {:.6e} J",
+                r.law,
+                r.deploy_time_s.map_or("never".into(), |t| format!("{t:.3}")),
+                r.max_impulse_ns,
+                r.sum_impulse_ns,
+                r.energy_lost_j
+            );
+        }
+        return Ok(());
+    }
+    let r = controller::run_blocking(a).map_err(Failure::run)?;
+    say!(
+        "controller: {} states, {} commands, deployed {}, max latch impulse {:.6e} N s",
+        r.states,
+        r.commands,
+        r.deployed,
+        r.max_impulse_ns
+    );
     Ok(())
 }

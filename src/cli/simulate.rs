@@ -162,36 +162,47 @@ pub fn run(a: SimulateArgs) -> Result<(), Failure> {
 }
 
 fn print_summary(s: &SimulateJson) {
-    println!("model            {}", s.model);
+    say!("model            {}", s.model);
     match s.deploy_time_s {
-        Some(t) if s.deployed => println!("deployed         yes, at t = {t:.6} s"),
-        _ => println!("deployed         no (stopped at t = {:.3} s)", s.time_s),
+        Some(t) if s.deployed => say!("deployed         yes, at t = {t:.6} s"),
+        _ => say!("deployed         no (stopped at t = {:.3} s)", s.time_s),
     }
-    println!(
+    say!(
         "steps            {} at dt = {} s, wall time {:.3} s",
-        s.steps, s.dt_s, s.wall_time_s
+        s.steps,
+        s.dt_s,
+        s.wall_time_s
     );
     if let Some(e) = s.final_error_rel {
-        println!("final error      {e:.3e} of the largest reference dimension");
+        say!("final error      {e:.3e} of the largest reference dimension");
     }
-    println!("max |Phi|        {:.3e} m", s.max_constraint_violation_m);
-    println!(
+    say!("max |Phi|        {:.3e} m", s.max_constraint_violation_m);
+    say!(
         "energy           motor {:.6e} J, friction {:.3e} J, damping {:.3e} J, latches {:.6e} J, kinetic {:.6e} J; balance error {:.2e}",
         s.energy.motor_work_j, s.energy.friction_loss_j, s.energy.damping_loss_j, s.energy.lock_loss_j, s.kinetic_energy_j, s.energy_balance_rel_error
     );
-    println!(
+    say!(
         "mechanisms       {} at start, {} at end",
-        s.dof_initial, s.dof_final
+        s.dof_initial,
+        s.dof_final
     );
     if !s.locks.is_empty() {
-        println!(
+        say!(
             "\n{:<16} {:>14} {:>14} {:>16} {:>14}",
-            "lock", "time_s", "impulse_ns", "energy_lost_j", "speed_m_s"
+            "lock",
+            "time_s",
+            "impulse_ns",
+            "energy_lost_j",
+            "speed_m_s"
         );
         for l in &s.locks {
-            println!(
+            say!(
                 "{:<16} {:>14.6} {:>14.6e} {:>16.6e} {:>14.6e}",
-                l.name, l.time_s, l.impulse_ns, l.energy_lost_j, l.closing_speed_m_s
+                l.name,
+                l.time_s,
+                l.impulse_ns,
+                l.energy_lost_j,
+                l.closing_speed_m_s
             );
         }
     }
