@@ -72,6 +72,10 @@ pub struct NodeArgs {
     /// Start paused (services resume/step drive it).
     #[arg(long)]
     pub paused: bool,
+    /// Period of the unconditional /truss/lock_status republication (s); it is
+    /// also published on every change.
+    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
+    pub lock_period_s: f64,
     /// Write publish-period and command-latency statistics (JSON) here at exit.
     #[arg(long)]
     pub timing: Option<PathBuf>,
@@ -357,6 +361,13 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
             return Err(input(format!("--max-wall-s {m} must be positive")));
         }
     }
+    if !(a.lock_period_s.is_finite() && a.lock_period_s > 0.0) {
+        return Err(input(format!(
+            "--lock-period-s {} must be positive",
+            a.lock_period_s
+        )));
+    }
+    let lock_period = Duration::from_secs_f64(a.lock_period_s);
     let ns = normalize_namespace(&a.namespace).map_err(input)?;
     let loaded = crate::model::load(&a.model).map_err(|e| input(e.to_string()))?;
     let mut sim = Simulator::new(loaded.model, Options::default())
@@ -408,6 +419,7 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
     let marker_period = Duration::from_millis(200);
     let mut next_marker = start;
     let mut pending: Option<(Vec<(usize, f64)>, i64, Instant)> = None;
+    let mut awaiting_step: Option<(i64, Instant)> = None;
     let mut step_error_logged = false;
     let mut lock_dirty = true;
     let mut summary = RunSummary::default();
@@ -418,6 +430,23 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
         let now = Instant::now();
         if deadline.is_some_and(|d| now >= d) {
             break "max wall time".into();
+        }
+        // 0. Periodic publications first, so that stepping does not delay them.
+        if now >= next_pub {
+            let stamp = sim_stamp(sim.state().t_s);
+            let _ = ep.clock.publish(Clock { clock: stamp });
+            let _ = ep.js.publish(view.joint_state(&sim, stamp, &a.frame_id));
+            let _ = ep.state.publish(view.truss_state(&sim, stamp, &a.frame_id));
+            summary.publications += 1;
+            if let Some(tm) = timing.as_mut() {
+                if tm.publish_at.len() < MAX_TIMING_RECORDS {
+                    tm.publish_at.push(now);
+                }
+            }
+            next_pub += pub_period;
+            if next_pub + pub_period < now {
+                next_pub = now + pub_period; // fell behind: skip, do not burst
+            }
         }
         // 1. Commands: drain everything pending (the reader keeps at most its
         //    QoS depth), validate each, keep the last valid one.
@@ -441,6 +470,17 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
                 }
             }
         }
+        // The last valid command is in force from the next step on.
+        if let Some((cmd, src_ns, taken)) = pending.take() {
+            for (c, t) in cmd {
+                // validated against the same model: cannot fail
+                let _ = sim.set_cable_tension(c, t);
+            }
+            lock_dirty = true;
+            if timing.is_some() {
+                awaiting_step = Some((src_ns, taken));
+            }
+        }
         // 2. Services.
         let mut want_step = false;
         for (k, srv) in ep.srv.iter().enumerate() {
@@ -451,7 +491,6 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
                 let (success, message) = match SRV_NAMES[k] {
                     "reset" => match sim.reset() {
                         Ok(()) => {
-                            pending = None;
                             anchor_wall = Instant::now();
                             anchor_sim = sim.state().t_s;
                             step_error_logged = false;
@@ -499,11 +538,7 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
             && ((want_step && n == 0) || (!paused && sim.state().t_s + 0.5 * dt <= target))
             && n < MAX_CATCHUP_STEPS
         {
-            if let Some((cmd, src_ns, taken)) = pending.take() {
-                for (c, t) in cmd {
-                    // validated against the same model: cannot fail
-                    let _ = sim.set_cable_tension(c, t);
-                }
+            if let Some((src_ns, taken)) = awaiting_step.take() {
                 if let Some(tm) = timing.as_mut() {
                     if tm.cmd_latency_s.len() < MAX_TIMING_RECORDS {
                         let lat = if src_ns > 0 {
@@ -558,24 +593,9 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
                     eprintln!("truss_deploy: lock_status publish: {e:?}");
                 }
                 last_lock_key = Some(key);
-                next_lock = now + Duration::from_secs(1);
+                next_lock = now + lock_period;
             }
             lock_dirty = false;
-        }
-        if now >= next_pub {
-            let _ = ep.clock.publish(Clock { clock: stamp });
-            let _ = ep.js.publish(view.joint_state(&sim, stamp, &a.frame_id));
-            let _ = ep.state.publish(view.truss_state(&sim, stamp, &a.frame_id));
-            summary.publications += 1;
-            if let Some(tm) = timing.as_mut() {
-                if tm.publish_at.len() < MAX_TIMING_RECORDS {
-                    tm.publish_at.push(now);
-                }
-            }
-            next_pub += pub_period;
-            if next_pub + pub_period < now {
-                next_pub = now + pub_period; // fell behind: skip, do not burst
-            }
         }
         if now >= next_marker {
             ep.markers.publish(&view, &sim, stamp, &a.frame_id);
