@@ -38,6 +38,10 @@ pub struct SailParams {
     pub plate_joint_mass_kg: f64,
     /// The motor drums sit this far below the base bottom joints (m).
     pub drum_drop_m: f64,
+    /// Residual fold angle gamma of each plate when deployed (deg). The plates are
+    /// (pitch/2)/cos(gamma_d) long so that the deck is not exactly flat when the
+    /// sleeves latch; 0 (flat) makes full deployment a singular configuration.
+    pub deck_fold_deg: f64,
 }
 
 impl Default for SailParams {
@@ -46,8 +50,8 @@ impl Default for SailParams {
             bays: 4,
             tension_n: 10.0,
             friction_mu: 0.005,
-            damping_n_s_per_m: 0.0,
-            dt_s: 0.05,
+            damping_n_s_per_m: 5.0,
+            dt_s: 0.01,
             pitch_m: 1.0,
             width_m: 0.7,
             start_deg: 1.0,
@@ -55,6 +59,7 @@ impl Default for SailParams {
             boom_joint_mass_kg: 0.15,
             plate_joint_mass_kg: 0.075,
             drum_drop_m: 0.3,
+            deck_fold_deg: 0.1,
         }
     }
 }
@@ -132,17 +137,22 @@ pub fn sail_deployed_height_m(p: &SailParams) -> f64 {
     sail_rod_length_m(p) * p.deploy_deg.to_radians().cos()
 }
 
+/// Length of each plate along x: c = (pitch/2) / cos(deck fold at deployment).
+pub fn sail_plate_length_m(p: &SailParams) -> f64 {
+    0.5 * p.pitch_m / p.deck_fold_deg.to_radians().cos()
+}
+
 /// Closed-form geometry at rod angle alpha (rad, from the vertical), in file order
 /// (J1.., then the drums). Unit pitch P = L sin alpha, boom height H = L cos alpha;
-/// bottom joints at z = -H_d (fixed height, the deck is at z = 0 when deployed),
-/// top joints at z = -H_d + H, station u at x = u P. Each plate (length c = pitch/2)
-/// is tilted by gamma, cos gamma = (P/2)/c, folded upward: odd hinge line h sits at
+/// bottom joints at z = -H_d (fixed height, the boom tops are at z = 0 when deployed),
+/// top joints at z = -H_d + H, station u at x = u P. Each plate (length c) is tilted
+/// by gamma, cos gamma = (P/2)/c, folded upward: odd hinge line h sits at
 /// x = h P/2, z = z_top + c sin gamma. The drums are at (0, y, -H_d - drop).
 pub fn sail_positions(p: &SailParams, alpha: f64) -> Vec<[f64; 3]> {
     let l = sail_rod_length_m(p);
     let hd = sail_deployed_height_m(p);
     let (pitch, h) = (l * alpha.sin(), l * alpha.cos());
-    let c = 0.5 * p.pitch_m;
+    let c = sail_plate_length_m(p);
     let cos_g = (0.5 * pitch / c).min(1.0);
     let sin_g = (1.0 - cos_g * cos_g).max(0.0).sqrt();
     let (zb, zt) = (-hd, -hd + h);
@@ -202,6 +212,12 @@ pub fn sail(p: &SailParams) -> Result<ModelDoc, String> {
         p.plate_joint_mass_kg,
         p.drum_drop_m,
     ];
+    if !(p.deck_fold_deg >= 0.0 && p.deck_fold_deg < 30.0) {
+        return Err(format!(
+            "deck fold at deployment {} deg must be in 0 to 30 deg",
+            p.deck_fold_deg
+        ));
+    }
     if positive.iter().any(|v| !(v.is_finite() && *v > 0.0)) {
         return Err(
             "dt, pitch, width, joint masses and drum drop must be positive and finite".into(),
@@ -302,15 +318,6 @@ pub fn sail(p: &SailParams) -> Result<ModelDoc, String> {
     };
     elements.push(sleeve("sleeve_1-2".into(), 1, 2, hd));
     elements.push(sleeve("sleeve_3-4".into(), 3, 4, hd));
-    // Deck hinge latches: odd hinge joint to the bottom joint of the station before it.
-    let c = 0.5 * p.pitch_m;
-    let latch_len = (c * c + hd * hd).sqrt();
-    for hl in (1..2 * n).step_by(2) {
-        for b in [Boom::A, Boom::B] {
-            let (j, bot) = (hinge_joint(hl, b), bottom_joint(hl / 2, b));
-            elements.push(sleeve(format!("latch_{j}-{bot}"), j, bot, latch_len));
-        }
-    }
 
     let cables = [Boom::A, Boom::B]
         .iter()
@@ -325,6 +332,7 @@ pub fn sail(p: &SailParams) -> Result<ModelDoc, String> {
         .collect();
 
     let last = nt;
+    let c_plate = sail_plate_length_m(p);
     Ok(ModelDoc {
         name: "sail_array".into(),
         description: format!(
@@ -335,24 +343,24 @@ pub fn sail(p: &SailParams) -> Result<ModelDoc, String> {
             p.deploy_deg
         ),
         notes: vec![
-            "The paper's figure is missing; this design honours all its numbers: 8 SLEs (4 per boom) and 8 plates, deploy angle 1 to 55 deg, deck 4.0 m x 0.7 m at z = 0, boom bottoms at z = -0.7, 2 cables at 10 N, mu 0.005, 0.15 kg per revolute joint, 0.075 kg per plate joint, dt 0.05 s.".into(),
+            "The paper's figure is missing; this design honours its numbers: 8 SLEs (4 per boom) and 8 plates, deploy angle 1 to 55 deg, deck 4.0 m x 0.7 m at z = 0, boom bottoms at z = -0.7, 2 cables at 10 N, mu 0.005, 0.15 kg per revolute joint, 0.075 kg per plate joint. Departures (dt, damping, a 0.1 deg residual deck fold, one guide support) are explained below.".into(),
             format!("Two planar pantograph booms along +x: boom A in the plane y = 0, boom B in the plane y = {}; stations u = 0..={n}, each with a top and a bottom joint per boom.", p.width_m),
-            "Each unit u is a scissor (ratio 1) with rods top_u-bottom_{u+1} and bottom_u-top_{u+1} crossing at their midpoints: a rectangle whose diagonals are the rods.".into(),
-            format!("Rod angle alpha is measured from the vertical: pitch P = L sin alpha, boom height H = L cos alpha, with L = pitch / sin(deploy) = {:.6} m and deployed height H_d = {:.6} m (the paper's 0.7).", sail_rod_length_m(p), hd),
-            "Bottom joints stay at z = -H_d (joints 1 and 4 are fixed there); top joints are at z = -H_d + H(alpha), so they slide down as the array deploys and the deck ends at z = 0.".into(),
-            format!("Deck: {} rigid plates (flat formulation) between the booms' top sides, an accordion with hinge lines h = 0..={}: even lines are the boom top joints of station h/2, odd lines are plate-only joints; plate p has corners A_(p-1), A_p, B_p, B_(p-1), {} m x {} m deployed.", 2 * n, 2 * n, 0.5 * p.pitch_m, p.width_m),
-            "Folded, each plate is tilted by gamma with cos gamma = (P/2)/(pitch/2); the accordion folds upward: odd hinge lines sit (pitch/2) sin gamma above the top joints.".into(),
-            format!("Joint numbering (paper anchors): J1 = boom A bottom, J2 = boom A top, J3 = boom B top, J4 = boom B bottom at station 0; then per station u = 1..={n} a block of six: odd hinge joint on boom A's side, on boom B's side, then A bottom, A top, B top, B bottom. Hence J5 deploys to (0.5, 0, 0), J{} (last A top) to ({}, 0, 0), J{} (last B bottom) to ({}, {}, -H_d).", last - 2, n as f64 * p.pitch_m, last, n as f64 * p.pitch_m, p.width_m),
-            "Masses: boom joints (tops, which the deck shares, and bottoms) 0.15 kg; plate-only joints 0.075 kg; drums 0.05 kg (fixed, so inert).".into(),
+            "Each unit u is a scissor (ratio 1) with rods top_u-bottom_(u+1) and bottom_u-top_(u+1) crossing at their midpoints: a rectangle whose diagonals are the rods.".into(),
+            format!("Rod angle alpha is measured from the vertical: pitch P = L sin alpha, boom height H = L cos alpha, with L = pitch / sin(deploy) = {:.6} m and deployed height H_d = L cos(deploy) = {:.6} m (the paper's 0.7).", sail_rod_length_m(p), hd),
+            "Bottom joints stay at z = -H_d (J1 and J4 are fixed there); top joints are at z = -H_d + H(alpha), so they slide down as the array deploys and end at z = 0.".into(),
+            format!("Deck: {} rigid plates (flat formulation) between the booms' top sides, an accordion with hinge lines h = 0..={}: even lines are the boom top joints of station h/2, odd lines are plate-only joints; plate p has corners A_(p-1), A_p, B_p, B_(p-1) and measures {:.7} m (x) by {} m (y).", 2 * n, 2 * n, c_plate, p.width_m),
+            "Folded, each plate is tilted by gamma with cos gamma = (P/2)/c; the accordion folds upward: odd hinge lines sit c sin gamma above the top joints.".into(),
+            format!("Residual deck fold: the plates are c = (pitch/2)/cos({} deg) long, so at full deployment (P = pitch) each plate is still tilted by {} deg and the odd hinge lines sit {:.2e} m above z = 0. With c = pitch/2 exactly (deck_fold_deg = 0) the flat deck is a singular end point: P reaches its maximum there, the sleeves' gap only touches zero without changing sign (no latch), the deck would snap through to the downward fold, and the inertia of the plate joints diverges, so the stepping does not converge. The 0.1 deg fold keeps every paper reference point within 1e-3 m.", p.deck_fold_deg, p.deck_fold_deg, c_plate * p.deck_fold_deg.to_radians().sin()),
+            format!("Joint numbering (paper anchors): J1 = boom A bottom, J2 = boom A top, J3 = boom B top, J4 = boom B bottom at station 0; then per station u = 1..={n} a block of six: odd hinge joint on boom A's side, on boom B's side, then A bottom, A top, B top, B bottom. Hence J5 deploys to (0.5, 0, ~0), J{} (last A top) to ({}, 0, 0), J{} (last B bottom) to ({}, {}, -H_d).", last - 2, n as f64 * p.pitch_m, last, n as f64 * p.pitch_m, p.width_m),
+            "Masses: boom joints (tops, which the deck shares, and bottoms) 0.15 kg; plate-only joints 0.075 kg; the two drums 0.05 kg (fixed, so inert).".into(),
             "Supports (paper): J1 and J4 fixed (xyz); x of J2 and J3 fixed, so they slide vertically as H changes.".into(),
-            "Added support: y of J2 is also fixed (a vertical guide). Without it the cross-section J1-J2-J3-J4 is a parallelogram and the whole array racks sideways (both booms lean in y, the deck translates): a finite mechanism that no lock removes.".into(),
-            "Sleeves (paper): the vertical struts J1-J2 and J3-J4 are sleeves latching at lock_length_m = H_d, i.e. at alpha = deploy angle.".into(),
-            "Added hinge latches: the deck is exactly flat when deployed, so the pitch P (and H) reaches an extremum there; the vertical sleeves' gap only touches zero without changing sign, and without a latch the deck would snap through to the downward fold. A real Z-fold deck has a latch at every panel hinge: each odd hinge joint has a sleeve to the bottom joint of the station before it, latching at sqrt((pitch/2)^2 + H_d^2), a length that decreases strictly through the flat state. They also remove the flat deck's infinitesimal mechanisms (odd hinge lines moving out of plane) in the locked structure.".into(),
+            "Added support: y of J2 is also fixed (a vertical guide rail). Without it the cross-section J1-J2-J3-J4 is a parallelogram and the whole array racks sideways (both booms lean in y, the deck translates): a finite mechanism that no lock removes (analyze: 2 mechanisms before locks, 1 after).".into(),
+            "Sleeves (paper): the vertical struts J1-J2 and J3-J4 are sleeves latching at lock_length_m = H_d, i.e. at alpha = deploy angle; the deck keeps both booms in step, so both latch at the same instant.".into(),
             "Drive cables (one per boom, constant motor tension, capstan friction mu at each pulley): motor drum fixed at (0, y, -H_d - 0.3) below the base; path drum -> top_0 -> bottom_0 -> top_1 -> bottom_1 -> ... -> top_N -> bottom_N (anchored). For boom A: drum_A, J2, J1, J8, J7, ..., J26, J25: fixed at J25, over a pulley at J26, zigzag down the boom along its rods with a pulley at each kink, over a pulley at J2 to the drum.".into(),
-            "Cable length l = drop + (N+2) L cos alpha + N L: the drum run and the N+1 vertical runs top_u-bottom_u shorten as the array deploys, the runs along rods keep length L. The drum run passes through J1 on its way to J2 (harmless: J1 is fixed).".into(),
-            "Reference geometry is the closed-form geometry at alpha = deploy angle, gamma = 0 (flat deck), not the simulator's.".into(),
-            "Deploy time: with no damping (damping_n_s_per_m = 0) and no joint friction, 2 x 10 N accelerate 4 kg of joints freely and the array deploys in about 2 s, against the paper's 140 s; the paper's time implies heavy dissipation or a speed-controlled motor not stated in the paper. Use --damping to slow it.".into(),
-            "Near the end all kinetic energy flows into the plate-only joints (the deck straightens like a pulled string) and is lost at the latch.".into(),
+            "Cable length l = drop + (N+2) L cos alpha + N L: the drum run and the N+1 vertical runs top_u-bottom_u shorten as the array deploys, the runs along rods keep length L. The drum run passes J1 on its way up to J2 (harmless: J1 is fixed).".into(),
+            "Damping 5 N s/m per joint (not in the paper): undamped, the 2 x 10 N cables put about 60 J of kinetic energy into the array, and as the deck straightens nearly all of it flows into the plate-only joints (about 11 m/s), which the fixed-point Newmark iteration cannot follow. With 5 N s/m the array deploys in about 33 s; the paper's 140 s implies stronger dissipation (about 20 N s/m) or a speed-controlled motor, neither stated. Use --damping to change it.".into(),
+            "Time step 0.01 s instead of the paper's 0.05 s: at alpha = 1 deg the folded plates and rods are nearly parallel, and the Newmark iteration of the first step does not converge for dt >= 0.0125 s. Damping above 2 m/dt = 15 N s/m would need a still smaller dt.".into(),
+            "Reference geometry is the closed-form geometry at alpha = deploy angle (gamma = deck fold), not the simulator's.".into(),
         ],
         dt_s: p.dt_s,
         end_time_s: 600.0,
