@@ -252,6 +252,44 @@ fn coplanar_fixture() -> Fixture {
     }
 }
 
+fn perpendicular_fixture() -> Fixture {
+    // corner p at the origin, q up the post, r along the radial member
+    let pts = [[0.0, 0.0, 0.0], [0.0, 0.0, 0.5], [0.7, 0.1, 0.0]];
+    let idx = [3, 1, 0];
+    let placed: Vec<(usize, [f64; 3])> = idx.iter().copied().zip(pts).collect();
+    let x0 = layout(5, &placed);
+    Fixture {
+        label: "perpendicular",
+        spec: spec("perpendicular", &idx, &[]),
+        x0,
+        size: 1.0,
+    }
+}
+
+fn sync_hinge_fixture(mirror: &'static str) -> Fixture {
+    // hinge p, post end q above it, radial end r, chord ends a and b mirrored
+    let pts = [
+        [2.0, 0.0, 0.0],
+        [2.0, 0.0, 0.5],
+        [1.3, 0.0, 0.0],
+        [1.9, -0.8, 0.2],
+        [1.9, 0.8, 0.2],
+    ];
+    let idx = [5, 2, 0, 4, 1];
+    let placed: Vec<(usize, [f64; 3])> = idx.iter().copied().zip(pts).collect();
+    let x0 = layout(7, &placed);
+    Fixture {
+        label: match mirror {
+            "axial" => "sync_hinge axial",
+            "radial" => "sync_hinge radial",
+            _ => "sync_hinge both",
+        },
+        spec: spec("sync_hinge", &idx, &[("mirror", text(mirror))]),
+        x0,
+        size: 1.0,
+    }
+}
+
 fn support_fixture(fix: &'static str) -> Fixture {
     let x0 = layout(3, &[(1, [0.4, -0.7, 1.1])]);
     Fixture {
@@ -273,6 +311,10 @@ fn all_fixtures() -> Vec<Fixture> {
         plate_fixture(None),
         plate_fixture(Some("six_bars")),
         coplanar_fixture(),
+        perpendicular_fixture(),
+        sync_hinge_fixture("both"),
+        sync_hinge_fixture("axial"),
+        sync_hinge_fixture("radial"),
         support_fixture("xz"),
         support_fixture("xyz"),
     ]
@@ -507,6 +549,10 @@ fn row_counts_match_the_documented_element_rows() {
         ("plate flat", 6),
         ("plate six_bars", 6),
         ("coplanar", 1),
+        ("perpendicular", 1),
+        ("sync_hinge both", 2),
+        ("sync_hinge axial", 1),
+        ("sync_hinge radial", 1),
     ];
     let fixtures = all_fixtures();
     for (label, n) in expected {

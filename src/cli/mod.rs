@@ -77,6 +77,9 @@ struct GenerateArgs {
     /// ring: number of sides (6 to 360).
     #[arg(long, default_value_t = generate::ring::RingParams::default().sides)]
     sides: usize,
+    /// ring: synchronizing gears at the post hinges: both, axial, radial or none.
+    #[arg(long, default_value = "both")]
+    sync: String,
     /// sail: number of bays (1 to 100).
     #[arg(long, default_value_t = generate::sail::SailParams::default().bays)]
     bays: usize,
@@ -331,6 +334,7 @@ fn generate_cmd(a: GenerateArgs) -> Result<(), Failure> {
                 tension_n: a.tension_n.unwrap_or(d.tension_n),
                 friction_mu: a.mu.unwrap_or(d.friction_mu),
                 damping_n_s_per_m: a.damping.unwrap_or(d.damping_n_s_per_m),
+                sync: a.sync.clone(),
                 ..d
             };
             generate::ring::ring(&p).map_err(Failure::input)?

@@ -67,6 +67,10 @@ struct Core {
     cables: Vec<CableEval>,
     violation_m: f64,
     pub factorizations: u64,
+    /// Set (to the step length) while a Newmark step treats damping implicitly.
+    implicit_h: Option<f64>,
+    inv_mass_eff: Vec<f64>,
+    v_star: Vec<f64>,
 }
 
 impl Core {
@@ -90,6 +94,9 @@ impl Core {
             cables: model.cables.iter().map(CableEval::for_cable).collect(),
             violation_m: 0.0,
             factorizations: 0,
+            implicit_h: None,
+            inv_mass_eff: model.inv_mass.clone(),
+            v_star: vec![0.0; n],
         }
     }
 
@@ -104,7 +111,12 @@ impl Core {
     fn factor(&mut self, model: &Model) -> Result<(), SolverError> {
         self.jac.fill(model, &self.x);
         self.factorizations += 1;
-        self.solver.factor(&self.jac, &model.inv_mass)
+        let w = if self.implicit_h.is_some() {
+            &self.inv_mass_eff
+        } else {
+            &model.inv_mass
+        };
+        self.solver.factor(&self.jac, w)
     }
 
     /// Applied forces Q at the trial (x, v): cables, damping, gravity. The cable
@@ -123,8 +135,13 @@ impl Core {
             cable::add_forces(c, &self.cables[ci], &self.x, &mut self.q);
         }
         let g = model.gravity_m_s2;
+        let damp_v = if self.implicit_h.is_some() {
+            &self.v_star
+        } else {
+            &self.v
+        };
         for i in 0..self.q.len() {
-            self.q[i] += model.mass[i] * g[i % 3] - model.damping_n_s_per_m * self.v[i];
+            self.q[i] += model.mass[i] * g[i % 3] - model.damping_n_s_per_m * damp_v[i];
         }
     }
 
@@ -140,9 +157,14 @@ impl Core {
         }
         self.applied_forces(model, cmd);
         self.jac.adot_xdot(model, &self.x, &self.v, &mut self.c);
+        let w = if self.implicit_h.is_some() {
+            &self.inv_mass_eff
+        } else {
+            &model.inv_mass
+        };
         self.solver.accelerations(
             &self.jac,
-            &model.inv_mass,
+            w,
             &self.q,
             &self.c,
             &mut self.a,
@@ -217,6 +239,21 @@ impl Core {
     ) -> Result<(), SolverError> {
         let cmd = &s.cable_tension_cmd_n;
         self.a_guess.copy_from_slice(&s.a);
+        self.implicit_h = None;
+        // Viscous damping C (diagonal) is taken implicitly: with
+        // V_{n+1} = V* + h/2 A_{n+1}, V* = V_n + h/2 A_n, the damping force -C V_{n+1}
+        // moves to the left: (M + h/2 C) A_{n+1} = Q - C V* + A^T lambda. The
+        // fixed-point iteration then contracts however stiff the damping is.
+        let c_damp = model.damping_n_s_per_m;
+        if c_damp > 0.0 {
+            for (w, m) in self.inv_mass_eff.iter_mut().zip(&model.mass) {
+                *w = 1.0 / (m + 0.5 * h * c_damp);
+            }
+            self.implicit_h = Some(h);
+            for i in 0..self.v_star.len() {
+                self.v_star[i] = s.v[i] + 0.5 * h * s.a[i];
+            }
+        }
         let amax = s.a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         let mut converged = false;
         for _ in 0..opts.max_newmark_iters {
@@ -225,7 +262,10 @@ impl Core {
                 self.x[i] = s.x[i] + h * s.v[i] + 0.25 * h * h * asum;
                 self.v[i] = s.v[i] + 0.5 * h * asum;
             }
-            self.accelerations(model, cmd, true)?;
+            if let Err(e) = self.accelerations(model, cmd, true) {
+                self.implicit_h = None;
+                return Err(e);
+            }
             let mut change = 0.0f64;
             let mut scale = amax;
             for i in 0..self.a.len() {
@@ -233,11 +273,12 @@ impl Core {
                 scale = scale.max(self.a[i].abs());
             }
             self.a_guess.copy_from_slice(&self.a);
-            if change <= 1e-12 * scale || change * h * h <= 1e-16 {
+            if change <= 1e-12 * scale || 0.25 * change * h * h <= 1e-14 {
                 converged = true;
                 break;
             }
         }
+        self.implicit_h = None;
         if !converged {
             return Err(SolverError::NoConvergence { t_s: s.t_s + h });
         }

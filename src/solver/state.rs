@@ -99,9 +99,16 @@ impl State {
     /// fraction of latches engaged.
     pub fn deploy_fraction(&self, model: &Model) -> f64 {
         let Some(r) = model.reference.as_ref() else {
-            return if model.locks.is_empty() { 0.0 } else { self.locks_engaged(model) as f64 / model.locks.len() as f64 };
+            return if model.locks.is_empty() {
+                0.0
+            } else {
+                self.locks_engaged(model) as f64 / model.locks.len() as f64
+            };
         };
-        let rms = |x: &[f64]| (x.iter().zip(r).map(|(a, b)| (a - b).powi(2)).sum::<f64>() / x.len().max(1) as f64).sqrt();
+        let rms = |x: &[f64]| {
+            (x.iter().zip(r).map(|(a, b)| (a - b).powi(2)).sum::<f64>() / x.len().max(1) as f64)
+                .sqrt()
+        };
         let d0 = rms(&model.x0);
         if d0 == 0.0 {
             return 1.0;

@@ -15,10 +15,12 @@ use std::fmt;
 pub mod angulated_scissor;
 pub mod bar;
 pub mod coplanar;
+pub mod perpendicular;
 pub mod plate;
 pub mod scissor;
 pub mod sleeve;
 pub mod support;
+pub mod sync_hinge;
 
 /// A parameter of an element as written in a model file.
 #[derive(Clone, Debug, PartialEq)]
@@ -155,6 +157,16 @@ pub const REGISTRY: &[(&str, &str, Builder)] = &[
         "coplanar",
         "keeps 4 joints in one plane (1 row)",
         coplanar::build,
+    ),
+    (
+        "perpendicular",
+        "right-angle fitting: members p-q and p-r stay square (joints p, q, r; 1 row)",
+        perpendicular::build,
+    ),
+    (
+        "sync_hinge",
+        "synchronizing gears at hinge p: members p-a and p-b fold as mirror images (joints p, q, r, a, b)",
+        sync_hinge::build,
     ),
     (
         "support",

@@ -14,6 +14,7 @@ use super::jacobian::Jacobian;
 use super::SolverError;
 
 pub mod dense;
+pub mod sparse;
 
 pub trait ConstraintSolver: Send {
     fn name(&self) -> &'static str;
@@ -45,12 +46,22 @@ pub trait ConstraintSolver: Send {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum SolverKind {
     Dense,
+    /// Sparse LDL^T of S = A M^-1 A^T (faer), regularized, with refinement.
+    Sparse,
 }
 
 impl SolverKind {
     pub fn make(self) -> Box<dyn ConstraintSolver> {
         match self {
             SolverKind::Dense => Box::new(dense::DenseNullSpace::default()),
+            SolverKind::Sparse => Box::new(sparse::SparseSchur::default()),
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            SolverKind::Dense => "dense",
+            SolverKind::Sparse => "sparse",
         }
     }
 }
