@@ -1,0 +1,355 @@
+//! The sparse backend (regularized sparse LDL^T of S = A M^-1 A^T) against the
+//! dense SVD reference: single solves at configurations with redundant rows, and
+//! whole deployments of every bundled model, step by step.
+
+use std::path::{Path, PathBuf};
+use truss_deploy::model::generate::{self, MastParams};
+use truss_deploy::model::{load, parse};
+use truss_deploy::solver::jacobian::Jacobian;
+use truss_deploy::solver::{Model, Options, Simulator, SolverKind};
+
+fn models() -> Vec<PathBuf> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("models");
+    let mut v: Vec<PathBuf> = std::fs::read_dir(&dir)
+        .expect("models/ exists")
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    v.sort();
+    v
+}
+
+fn sim(model: Model, solver: SolverKind) -> Simulator {
+    Simulator::new(
+        model,
+        Options {
+            solver,
+            ..Default::default()
+        },
+    )
+    .expect("simulator")
+}
+
+fn max_abs(v: &[f64]) -> f64 {
+    v.iter().fold(0.0, |m, x| m.max(x.abs()))
+}
+
+fn max_diff(a: &[f64], b: &[f64]) -> f64 {
+    a.iter().zip(b).fold(0.0, |m, (x, y)| m.max((x - y).abs()))
+}
+
+/// Steps dense and sparse side by side to full deployment; positions must agree
+/// to 1e-9 m at every step, lock times to 1e-9 s.
+fn deploy_both(name: &str, model: impl Fn() -> Model, max_steps: usize) {
+    let mut d = sim(model(), SolverKind::Dense);
+    let mut s = sim(model(), SolverKind::Sparse);
+    let dt = d.model().dt_s;
+    assert_eq!(d.state().deployed, s.state().deployed);
+    let dx0 = max_diff(&d.state().x, &s.state().x);
+    assert!(dx0 <= 1e-9, "{name}: initial positions differ by {dx0:e} m");
+    let mut worst = dx0;
+    let mut steps = 0;
+    while !d.state().deployed {
+        assert!(
+            steps < max_steps,
+            "{name}: not deployed after {max_steps} steps"
+        );
+        d.step(dt).expect("dense step");
+        s.step(dt).expect("sparse step");
+        steps += 1;
+        let diff = max_diff(&d.state().x, &s.state().x);
+        worst = worst.max(diff);
+        assert!(
+            diff <= 1e-9,
+            "{name}: step {steps} (t = {:.3} s): joint positions differ by {diff:e} m",
+            d.state().t_s
+        );
+        assert_eq!(
+            d.state().locked,
+            s.state().locked,
+            "{name}: step {steps}: locked sets differ"
+        );
+    }
+    assert!(
+        s.state().deployed,
+        "{name}: sparse run not deployed with the dense one"
+    );
+    let (ld, ls) = (&d.state().locks, &s.state().locks);
+    assert_eq!(ld.len(), ls.len(), "{name}: number of lock events");
+    let mut worst_impulse = 0.0f64;
+    for (a, b) in ld.iter().zip(ls) {
+        assert_eq!(a.element, b.element, "{name}: lock order");
+        assert!(
+            (a.time_s - b.time_s).abs() <= 1e-9,
+            "{name}: lock of `{}` at {} s (dense) vs {} s (sparse)",
+            a.name,
+            a.time_s,
+            b.time_s
+        );
+        worst_impulse =
+            worst_impulse.max((a.impulse_ns - b.impulse_ns).abs() / a.impulse_ns.max(1e-300));
+    }
+    eprintln!(
+        "{name}: {steps} steps, max position difference {worst:.2e} m, deploy at {:?} s, \
+         {} locks, max relative lock-impulse difference {worst_impulse:.1e}",
+        d.state().deploy_time_s,
+        ld.len()
+    );
+}
+
+#[test]
+fn bundled_models_deploy_identically() {
+    let paths = models();
+    assert!(!paths.is_empty());
+    for p in paths {
+        let m = || load(&p).expect("bundled model loads").model;
+        deploy_both(&p.display().to_string(), m, 100_000);
+    }
+}
+
+#[test]
+fn generated_masts_deploy_identically() {
+    for units in [1, 2, 7] {
+        let text = generate::mast(&MastParams {
+            units,
+            ..Default::default()
+        })
+        .expect("valid params")
+        .to_toml();
+        let m = || {
+            parse(&text, "mast.toml")
+                .expect("generated model loads")
+                .model
+        };
+        deploy_both(&format!("mast({units} units)"), m, 100_000);
+    }
+}
+
+/// Deterministic pseudo-random numbers in [-1, 1).
+struct Lcg(u64);
+impl Lcg {
+    fn next(&mut self) -> f64 {
+        self.0 = self
+            .0
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        ((self.0 >> 11) as f64 / (1u64 << 53) as f64) * 2.0 - 1.0
+    }
+    fn vec(&mut self, n: usize, scale: f64) -> Vec<f64> {
+        (0..n).map(|_| scale * self.next()).collect()
+    }
+}
+
+/// One factor + accelerations + corrections at a configuration with states of
+/// self-stress; joint forces A^T lambda (not lambda) and accelerations compared.
+fn compare_single(model: &Model, x: &[f64], locked: &[bool], seed: u64) {
+    let mut jac = Jacobian::pattern(model, locked);
+    jac.fill(model, x);
+    let (m, n) = (jac.nrows, jac.ncols);
+    let rank = truss_deploy::solver::mobility::rank(&jac);
+    assert!(
+        rank < m,
+        "the configuration should have redundant rows ({rank} of {m})"
+    );
+    let mut rng = Lcg(seed);
+    let q = rng.vec(n, 3.0);
+    // consistent convective term: c = A w
+    let w = rng.vec(n, 1.0);
+    let mut c = vec![0.0; m];
+    jac.mul(&w, &mut c);
+    // Inconsistent ones (least-squares in both backends; the simulator's are
+    // consistent to roundoff, but the backend must not depend on it).
+    let c_bad: Vec<f64> = c.iter().map(|v| v + 1e-6 * rng.next()).collect();
+    let r_bad = rng.vec(m, 1e-6);
+
+    let mut dense = SolverKind::Dense.make();
+    let mut sparse = SolverKind::Sparse.make();
+    // factor twice: the second factor() reuses the symbolic analysis
+    for _ in 0..2 {
+        dense.factor(&jac, &model.inv_mass).unwrap();
+        sparse.factor(&jac, &model.inv_mass).unwrap();
+    }
+    assert_eq!(sparse.name(), "sparse");
+    let forces = |l: &[f64]| {
+        let mut f = vec![0.0; n];
+        jac.mul_t(l, &mut f);
+        f
+    };
+    for (label, cc, tol) in [("consistent c", &c, 1e-9), ("inconsistent c", &c_bad, 1e-9)] {
+        let (mut ad, mut ld) = (vec![0.0; n], vec![0.0; m]);
+        let (mut as_, mut ls) = (vec![0.0; n], vec![0.0; m]);
+        dense.accelerations(&jac, &model.inv_mass, &q, cc, &mut ad, &mut ld);
+        sparse.accelerations(&jac, &model.inv_mass, &q, cc, &mut as_, &mut ls);
+        let ea = max_diff(&ad, &as_) / max_abs(&ad);
+        let (fd, fs) = (forces(&ld), forces(&ls));
+        let ef = max_diff(&fd, &fs) / max_abs(&fd);
+        let el = max_diff(&ld, &ls) / max_abs(&ld);
+        eprintln!("{label}: rel. diff accelerations {ea:.1e}, joint forces {ef:.1e}, multipliers {el:.1e}");
+        assert!(
+            ea <= tol,
+            "{label}: accelerations differ by {ea:e} (relative)"
+        );
+        assert!(
+            ef <= tol,
+            "{label}: joint forces A^T lambda differ by {ef:e} (relative)"
+        );
+        // minimum norm in both: the multipliers themselves agree, more loosely
+        assert!(
+            el <= 1e-5,
+            "{label}: multipliers differ by {el:e} (relative)"
+        );
+    }
+    let mut av = vec![0.0; m];
+    jac.mul(&w, &mut av);
+    for (label, r, tol) in [
+        ("consistent r", &av, 1e-9),
+        ("inconsistent r", &r_bad, 1e-9),
+    ] {
+        let (mut dd, mut md) = (vec![0.0; n], vec![0.0; m]);
+        let (mut ds, mut ms) = (vec![0.0; n], vec![0.0; m]);
+        dense.correction(&jac, &model.inv_mass, r, &mut dd, &mut md);
+        sparse.correction(&jac, &model.inv_mass, r, &mut ds, &mut ms);
+        let ex = max_diff(&dd, &ds) / max_abs(&dd);
+        let em = max_diff(&md, &ms) / max_abs(&md);
+        eprintln!("{label}: rel. diff dx {ex:.1e}, multipliers {em:.1e}");
+        assert!(
+            ex <= tol,
+            "{label}: corrections dx differ by {ex:e} (relative)"
+        );
+        assert!(
+            em <= 1e-5,
+            "{label}: multipliers differ by {em:e} (relative)"
+        );
+    }
+}
+
+#[test]
+fn single_solves_match_dense_with_redundant_rows() {
+    for units in [4, 12] {
+        let text = generate::mast(&MastParams {
+            units,
+            ..Default::default()
+        })
+        .expect("valid params")
+        .to_toml();
+        // a configuration on the manifold part-way through deployment
+        let mut s = sim(
+            parse(&text, "mast.toml").expect("loads").model,
+            SolverKind::Dense,
+        );
+        for _ in 0..7 {
+            s.step(s.model().dt_s).unwrap();
+        }
+        let model = s.model();
+        let x = s.state().x.clone();
+        let unlocked = vec![false; model.elements.len()];
+        compare_single(model, &x, &unlocked, 1 + units as u64);
+        // with every sleeve latched as a bar (more states of self-stress)
+        let all: Vec<bool> = (0..model.elements.len())
+            .map(|e| model.locks.contains(&e))
+            .collect();
+        compare_single(model, &x, &all, 100 + units as u64);
+        // the initial geometry (a flat mast, 5 deg)
+        compare_single(model, &model.x0, &unlocked, 7 + units as u64);
+    }
+}
+
+/// Per-step timings, dense vs sparse (run with
+/// `cargo test --release --no-default-features --test sparse_vs_dense -- --ignored --nocapture`).
+#[test]
+#[ignore]
+fn timing_dense_vs_sparse() {
+    let mut cases: Vec<(String, String)> = models()
+        .into_iter()
+        .map(|p| {
+            (
+                p.display().to_string(),
+                std::fs::read_to_string(&p).unwrap(),
+            )
+        })
+        .collect();
+    for units in [20, 60, 150] {
+        let text = generate::mast(&MastParams {
+            units,
+            ..Default::default()
+        })
+        .unwrap()
+        .to_toml();
+        cases.push((format!("mast({units} units)"), text));
+    }
+    for (name, text) in cases {
+        for kind in [SolverKind::Dense, SolverKind::Sparse] {
+            let model = parse(&text, "m.toml").unwrap().model;
+            let sparse_only = std::env::var_os("TIMING_SPARSE_ONLY").is_some();
+            if kind == SolverKind::Dense && (model.n_coords() > 500 || sparse_only) {
+                continue; // seconds per step
+            }
+            let mut s = sim(model, kind);
+            let dt = s.model().dt_s;
+            let steps = if s.model().n_coords() > 300 && kind == SolverKind::Dense {
+                5
+            } else {
+                200
+            };
+            let f0 = s.factorizations();
+            let mut times = Vec::new();
+            for _ in 0..steps {
+                if s.state().deployed {
+                    s.reset().unwrap();
+                }
+                let t0 = std::time::Instant::now();
+                s.step(dt).unwrap();
+                times.push(t0.elapsed().as_secs_f64());
+            }
+            times.sort_by(f64::total_cmp);
+            eprintln!(
+                "{name} ({} coords, {} rows): {:>6}: median {:9.1} us/step, {:.1} factorizations/step",
+                s.model().n_coords(),
+                s.jacobian().nrows,
+                kind.name(),
+                times[times.len() / 2] * 1e6,
+                (s.factorizations() - f0) as f64 / steps as f64
+            );
+        }
+    }
+}
+
+#[test]
+fn refinement_converges_in_few_steps() {
+    use truss_deploy::solver::linsolve::sparse::SparseSchur;
+    use truss_deploy::solver::linsolve::ConstraintSolver;
+    for units in [4, 150] {
+        let text = generate::mast(&MastParams {
+            units,
+            ..Default::default()
+        })
+        .unwrap()
+        .to_toml();
+        let mut s = sim(parse(&text, "m.toml").unwrap().model, SolverKind::Sparse);
+        for _ in 0..5 {
+            s.step(s.model().dt_s).unwrap();
+        }
+        let model = s.model();
+        let mut jac = Jacobian::pattern(model, &vec![false; model.elements.len()]);
+        jac.fill(model, &s.state().x);
+        let (m, n) = (jac.nrows, jac.ncols);
+        let mut sp = SparseSchur::default();
+        sp.factor(&jac, &model.inv_mass).unwrap();
+        let mut rng = Lcg(3);
+        let q = rng.vec(n, 1.0);
+        let w = rng.vec(n, 1.0);
+        let mut c = vec![0.0; m];
+        jac.mul(&w, &mut c);
+        let (mut a, mut l) = (vec![0.0; n], vec![0.0; m]);
+        sp.accelerations(&jac, &model.inv_mass, &q, &c, &mut a, &mut l);
+        eprintln!(
+            "{units} units: {} refinement steps, {} inconsistent",
+            sp.total_iterations, sp.inconsistent_solves
+        );
+        assert!(
+            sp.total_iterations <= 10,
+            "{} refinement steps",
+            sp.total_iterations
+        );
+    }
+}
