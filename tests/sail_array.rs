@@ -12,7 +12,9 @@ use truss_deploy::solver::{Model, Options, Simulator};
 
 fn default_model() -> Model {
     let text = sail(&SailParams::default()).unwrap().to_toml();
-    parse(&text, "sail_array.toml").expect("generated model loads").model
+    parse(&text, "sail_array.toml")
+        .expect("generated model loads")
+        .model
 }
 
 fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
@@ -54,7 +56,10 @@ fn reference_geometry_matches_the_papers_points() {
     }
     // the paper's joint count: 8 SLEs, 8 plates, 28 numbered joints
     assert_eq!(doc.joints.len(), 28 + 2);
-    assert_eq!(doc.elements.iter().filter(|e| e.kind == "scissor").count(), 8);
+    assert_eq!(
+        doc.elements.iter().filter(|e| e.kind == "scissor").count(),
+        8
+    );
     assert_eq!(doc.elements.iter().filter(|e| e.kind == "plate").count(), 8);
     assert_eq!(&sail_joint_names(4)[..4], &["J1", "J2", "J3", "J4"]);
     // the rods keep their length between the folded and the deployed geometry
@@ -83,11 +88,20 @@ fn reference_geometry_matches_the_papers_points() {
 #[test]
 fn bays_out_of_range_are_rejected() {
     for bays in [0, 101] {
-        let e = sail(&SailParams { bays, ..SailParams::default() }).unwrap_err();
+        let e = sail(&SailParams {
+            bays,
+            ..SailParams::default()
+        })
+        .unwrap_err();
         assert!(e.contains("1 to 100"), "{e}");
     }
     for bays in [1, 2, 7] {
-        let text = sail(&SailParams { bays, ..SailParams::default() }).unwrap().to_toml();
+        let text = sail(&SailParams {
+            bays,
+            ..SailParams::default()
+        })
+        .unwrap()
+        .to_toml();
         parse(&text, "s.toml").expect("loads");
     }
 }
@@ -98,7 +112,11 @@ fn mobility_is_one_before_locks_and_zero_after() {
     let free = vec![false; m.elements.len()];
     let before = mobility::analyze(&m, &m.x0, &free);
     assert_eq!(before.mechanisms, 1, "{before:?}");
-    let all: Vec<bool> = m.elements.iter().map(|e| e.lock_gap(&m.x0).is_some()).collect();
+    let all: Vec<bool> = m
+        .elements
+        .iter()
+        .map(|e| e.lock_gap(&m.x0).is_some())
+        .collect();
     assert_eq!(all.iter().filter(|l| **l).count(), 2, "sleeves 1-2 and 3-4");
     let reference = m.reference.clone().unwrap();
     for (x, name) in [(&m.x0, "folded"), (&reference, "reference")] {
@@ -124,7 +142,11 @@ fn cable_length_shrinks_monotonically_while_deploying() {
     for i in 0..=540 {
         let alpha = (1.0 + 0.1 * i as f64).to_radians();
         let l = sail_cable_length(&p, alpha);
-        assert!(l < last, "cable length grows at {} deg", 1.0 + 0.1 * i as f64);
+        assert!(
+            l < last,
+            "cable length grows at {} deg",
+            1.0 + 0.1 * i as f64
+        );
         last = l;
         // the closed form equals the sum of the path's segments
         let x = sail_positions(&p, alpha);

@@ -4,14 +4,15 @@
 //! plane y = width) of `bays` scissor units each along +x carry an accordion deck
 //! of 2 * bays rigid plates between their top sides. The paper's array (Xu Yan et
 //! al., the deployable sail array example) is the default: 4 units per boom, so 8
-//! SLEs and 8 plates, deploying from alpha = 1 deg to alpha = 55 deg to a flat deck
-//! 4.0 m long and 0.7 m wide at z = 0, with the boom bottoms at z = -0.7.
+//! SLEs and 8 plates, deploying from alpha = 1 deg to alpha = 55 deg to a deck
+//! 4.0 m long and 0.7 m wide at z = 0 (flat but for a 0.1 deg residual fold that
+//! keeps full deployment a regular configuration), with the boom bottoms at z = -0.7.
 //!
 //! Joint numbering (`J1`..`J{4 + 6 bays}`, the paper's anchors for 4 bays):
 //! station 0 is J1 = boom A bottom, J2 = boom A top, J3 = boom B top, J4 = boom B
 //! bottom; then for each station u = 1..=bays a block of six: the odd deck hinge
 //! line between stations u-1 and u (boom A side, then boom B side), then station
-//! u's A bottom, A top, B top, B bottom. So J5 deploys to (0.5, 0, 0), J26 (the
+//! u's A bottom, A top, B top, B bottom. So J5 deploys to (0.5, 0, 0.0009), J26 (the
 //! last boom A top) to (4, 0, 0) and J28 (the last boom B bottom) to (4, 0.7, -0.7).
 //! The two motor drums follow as `drum_A` and `drum_B`.
 
