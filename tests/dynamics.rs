@@ -371,3 +371,114 @@ fn reset_returns_to_the_initial_state() {
     assert_eq!(sim.state().x, x0);
     assert!(sim.state().locks.is_empty());
 }
+
+/// A mass pulled along x by a constant cable force F against viscous damping c,
+/// latching after a travel d: x(t) = (F/c) (t - tau (1 - e^{-t/tau})), tau = m/c.
+fn damped_mass_model(m: f64, f: f64, c: f64, travel: f64) -> String {
+    format!(
+        r#"
+[model]
+name = "damped_mass"
+[settings]
+damping_n_s_per_m = {c}
+[[joint]]
+name = "A"
+position_m = [0.0, 0.0, 0.0]
+mass_kg = 1.0
+[[joint]]
+name = "B"
+position_m = [1.0, 0.0, 0.0]
+mass_kg = {m}
+[[element]]
+type = "support"
+name = "A_fixed"
+joints = ["A"]
+[[element]]
+type = "support"
+name = "B_on_x"
+joints = ["B"]
+fix = "yz"
+[[element]]
+type = "sleeve"
+name = "latch"
+joints = ["A", "B"]
+lock_length_m = {lock}
+[[cable]]
+name = "pull"
+path = ["A", "B"]
+tension_n = {f}
+"#,
+        lock = 1.0 - travel
+    )
+}
+
+fn damped_latch_time(m: f64, f: f64, c: f64, travel: f64) -> f64 {
+    let tau = m / c;
+    let x = |t: f64| f / c * (t - tau * (1.0 - (-t / tau).exp()));
+    let (mut lo, mut hi) = (0.0, 1.0);
+    while x(hi) < travel {
+        hi *= 2.0;
+    }
+    for _ in 0..200 {
+        let mid = 0.5 * (lo + hi);
+        if x(mid) < travel {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    0.5 * (lo + hi)
+}
+
+fn damped_latch_errors(m: f64, f: f64, c: f64, travel: f64, dts: &[f64]) -> (f64, Vec<f64>) {
+    let exact = damped_latch_time(m, f, c, travel);
+    let mut errs = Vec::new();
+    for &dt in dts {
+        let model = parse(&damped_mass_model(m, f, c, travel), "damped.toml")
+            .unwrap()
+            .model;
+        let mut sim = Simulator::new(model, Options::default()).unwrap();
+        while sim.state().locks.is_empty() {
+            assert!(sim.state().t_s < 10.0 * exact);
+            sim.step(dt).unwrap();
+        }
+        let s = sim.state();
+        errs.push((s.locks[0].time_s - exact).abs());
+        // the trapezoidal damping work is the scheme's own: the balance closes to roundoff
+        let bal = s.energy.balance_rel_error(s.kinetic_energy_j(sim.model()));
+        assert!(bal < 1e-9, "energy balance {bal:e} at dt {dt}");
+        assert!(s.energy.damping_loss_j > 0.0);
+    }
+    (exact, errs)
+}
+
+#[test]
+fn stiff_damping_converges_and_matches_the_closed_form() {
+    // c dt / m = 20 at dt = 0.05: a fixed-point treatment of the damping would
+    // diverge; the implicit one converges, and the steady drift is exact.
+    let (exact, errs) = damped_latch_errors(0.3, 2.0, 120.0, 0.5, &[0.05]);
+    assert!(
+        errs[0] / exact < 1e-9,
+        "relative error {:e}",
+        errs[0] / exact
+    );
+}
+
+#[test]
+fn damped_latch_time_converges_at_second_order() {
+    // tau = m/c = 0.5 s, comparable with the travel time: the transient matters.
+    let (exact, errs) = damped_latch_errors(0.3, 0.05, 0.6, 0.5, &[0.1, 0.05, 0.025]);
+    eprintln!("damped latch time errors at dt 0.1, 0.05, 0.025 vs {exact}: {errs:?}");
+    assert!(
+        errs[1] / exact < 1e-4,
+        "relative error {:e} at dt 0.05",
+        errs[1] / exact
+    );
+    for w in errs.windows(2) {
+        let ratio = w[0] / w[1];
+        assert!(
+            (3.0..5.5).contains(&ratio),
+            "second order expected, errors {errs:?}"
+        );
+    }
+}

@@ -290,6 +290,19 @@ fn sync_hinge_fixture(mirror: &'static str) -> Fixture {
     }
 }
 
+fn centroid_fixture() -> Fixture {
+    let pts = [[1.0, 0.0, 0.2], [0.0, 1.0, -0.2], [-1.0, 0.1, 0.3]];
+    let idx = [4, 0, 2];
+    let placed: Vec<(usize, [f64; 3])> = idx.iter().copied().zip(pts).collect();
+    let x0 = layout(5, &placed);
+    Fixture {
+        label: "centroid",
+        spec: spec("centroid", &idx, &[("fix", text("xz"))]),
+        x0,
+        size: 1.0,
+    }
+}
+
 fn support_fixture(fix: &'static str) -> Fixture {
     let x0 = layout(3, &[(1, [0.4, -0.7, 1.1])]);
     Fixture {
@@ -312,6 +325,7 @@ fn all_fixtures() -> Vec<Fixture> {
         plate_fixture(Some("six_bars")),
         coplanar_fixture(),
         perpendicular_fixture(),
+        centroid_fixture(),
         sync_hinge_fixture("both"),
         sync_hinge_fixture("axial"),
         sync_hinge_fixture("radial"),
@@ -550,6 +564,7 @@ fn row_counts_match_the_documented_element_rows() {
         ("plate six_bars", 6),
         ("coplanar", 1),
         ("perpendicular", 1),
+        ("centroid", 2),
         ("sync_hinge both", 2),
         ("sync_hinge axial", 1),
         ("sync_hinge radial", 1),

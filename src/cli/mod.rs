@@ -80,6 +80,9 @@ struct GenerateArgs {
     /// ring: synchronizing gears at the post hinges: both, axial, radial or none.
     #[arg(long, default_value = "both")]
     sync: String,
+    /// ring: how the ring is held: `hub` (at its centre) or `frame0` (at post O0).
+    #[arg(long, default_value = "hub")]
+    mount: String,
     /// sail: number of bays (1 to 100).
     #[arg(long, default_value_t = generate::sail::SailParams::default().bays)]
     bays: usize,
@@ -335,6 +338,7 @@ fn generate_cmd(a: GenerateArgs) -> Result<(), Failure> {
                 friction_mu: a.mu.unwrap_or(d.friction_mu),
                 damping_n_s_per_m: a.damping.unwrap_or(d.damping_n_s_per_m),
                 sync: a.sync.clone(),
+                mount: a.mount.clone(),
                 ..d
             };
             generate::ring::ring(&p).map_err(Failure::input)?

@@ -47,6 +47,8 @@ pub struct RingParams {
     pub sync: String,
     /// Passive latching cross-diagonals in the cells between the rings.
     pub cell_diagonals: bool,
+    /// "hub": held at its centre (symmetric deployment); "frame0": held at post O0.
+    pub mount: String,
 }
 
 impl Default for RingParams {
@@ -65,6 +67,7 @@ impl Default for RingParams {
             dt_s: 0.05,
             sync: "both".into(),
             cell_diagonals: true,
+            mount: "hub".into(),
         }
     }
 }
@@ -159,12 +162,26 @@ pub fn ring(p: &RingParams) -> Result<ModelDoc, String> {
     let a0 = 0.5 * p.outer_chord_m * p.start_deg.to_radians().sin();
     let x0 = ring_positions(p, a0)?;
     let xd = ring_positions(p, 0.0)?;
-    // The supports hold O0_b where it starts; the deployed ring is placed likewise.
-    let shift = [
-        x0[0][0] - xd[0][0],
-        x0[0][1] - xd[0][1],
-        x0[0][2] - xd[0][2],
-    ];
+    // A hub mount holds the ring's centre, which the symmetric deployment keeps at
+    // the origin; a frame-0 mount holds O0_b where it starts, and the deployed ring
+    // is placed likewise.
+    let hub =
+        match p.mount.as_str() {
+            "hub" => true,
+            "frame0" => false,
+            other => return Err(format!(
+                "--mount {other}: use `hub` (held at the centre) or `frame0` (held at one post)"
+            )),
+        };
+    let shift = if hub {
+        [0.0; 3]
+    } else {
+        [
+            x0[0][0] - xd[0][0],
+            x0[0][1] - xd[0][1],
+            x0[0][2] - xd[0][2],
+        ]
+    };
     let names = ring_joint_names(n);
     let joints = names
         .iter()
@@ -198,11 +215,39 @@ pub fn ring(p: &RingParams) -> Result<ModelDoc, String> {
             vec![("fix".into(), Param::Text(f.into()))],
         )
     };
-    let z_frame = 2 * (n / 4).max(2);
-    elements.push(fix(j("O", 0, "b"), "xyz"));
-    elements.push(fix(j("O", n / 2, "b"), "y"));
-    elements.push(fix(j("O", 2, "b"), "z"));
-    elements.push(fix(j("O", z_frame, "b"), "z"));
+    if hub {
+        // Centre of the outer bottom joints fixed; O0_b (on the x axis) held at y = 0
+        // against spin; the mean heights of two blocks of 2m consecutive frames
+        // (equal numbers of low and high frames, so their mean stays 0) against tilt.
+        let m = (n / 4).max(1);
+        let block = |from: usize| {
+            (from..from + 2 * m)
+                .map(|k| j("O", k, "b"))
+                .collect::<Vec<_>>()
+        };
+        let centroid = |name: &str, joints: Vec<String>, f: &str| {
+            el(
+                "centroid",
+                name.into(),
+                &joints,
+                vec![("fix".into(), Param::Text(f.into()))],
+            )
+        };
+        elements.push(centroid(
+            "hub_centre",
+            (0..n).map(|k| j("O", k, "b")).collect(),
+            "xyz",
+        ));
+        elements.push(fix(j("O", 0, "b"), "y"));
+        elements.push(centroid("hub_level_a", block(0), "z"));
+        elements.push(centroid("hub_level_b", block(n - m), "z"));
+    } else {
+        let z_frame = 2 * (n / 4).max(2);
+        elements.push(fix(j("O", 0, "b"), "xyz"));
+        elements.push(fix(j("O", n / 2, "b"), "y"));
+        elements.push(fix(j("O", 2, "b"), "z"));
+        elements.push(fix(j("O", z_frame, "b"), "z"));
+    }
     let cell_len = ((ro_d * ro_d + ri_d * ri_d
         - 2.0 * ro_d * ri_d * (2.0 * std::f64::consts::PI / n as f64).cos())
         + h * h)

@@ -14,6 +14,7 @@ use std::fmt;
 
 pub mod angulated_scissor;
 pub mod bar;
+pub mod centroid;
 pub mod coplanar;
 pub mod perpendicular;
 pub mod plate;
@@ -157,6 +158,11 @@ pub const REGISTRY: &[(&str, &str, Builder)] = &[
         "coplanar",
         "keeps 4 joints in one plane (1 row)",
         coplanar::build,
+    ),
+    (
+        "centroid",
+        "fixes coordinates (`fix`) of the mean position of any number of joints",
+        centroid::build,
     ),
     (
         "perpendicular",

@@ -1,0 +1,76 @@
+//! Centroid support: fixes some coordinates of the mean position of a group of
+//! joints, Phi_c = (1/N) sum_j X_{j,c} - Xbar0_c for each fixed axis c (linear,
+//! Adot Xdot = 0). It holds a structure at its centre, as a symmetric hub does,
+//! without biasing a symmetric deployment: unlike a support at one joint it
+//! needs no reaction while the centre of mass stays put.
+
+use super::{Constraint, ElementSpec};
+
+#[derive(Debug)]
+pub struct Centroid {
+    name: String,
+    joints: Vec<usize>,
+    /// (axis, fixed mean value in m)
+    fixed: Vec<(usize, f64)>,
+}
+
+pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, String> {
+    if spec.joints.is_empty() {
+        return Err("a centroid support needs at least one joint".into());
+    }
+    spec.only_params(&["fix"])?;
+    let fix = spec.text("fix")?.unwrap_or("xyz");
+    if fix.is_empty() || fix.chars().any(|c| !"xyz".contains(c)) {
+        return Err(format!(
+            "`fix` = \"{fix}\"; give the fixed axes as letters from \"xyz\", e.g. \"z\""
+        ));
+    }
+    let n = spec.joints.len() as f64;
+    let fixed = (0..3)
+        .filter(|axis| fix.contains(['x', 'y', 'z'][*axis]))
+        .map(|axis| {
+            (
+                axis,
+                spec.joints.iter().map(|j| x0[3 * j + axis]).sum::<f64>() / n,
+            )
+        })
+        .collect();
+    Ok(Box::new(Centroid {
+        name: spec.name.clone(),
+        joints: spec.joints.clone(),
+        fixed,
+    }))
+}
+
+impl Constraint for Centroid {
+    fn kind(&self) -> &'static str {
+        "centroid"
+    }
+    fn name(&self) -> &str {
+        &self.name
+    }
+    fn joints(&self) -> &[usize] {
+        &self.joints
+    }
+    fn rows(&self, _locked: bool) -> usize {
+        self.fixed.len()
+    }
+    fn residual(&self, x: &[f64], out: &mut [f64]) {
+        let n = self.joints.len() as f64;
+        for (r, (axis, value)) in self.fixed.iter().enumerate() {
+            out[r] = self.joints.iter().map(|j| x[3 * j + axis]).sum::<f64>() / n - value;
+        }
+    }
+    fn jacobian(&self, _x: &[f64], out: &mut [f64]) {
+        let (n, w) = (self.joints.len(), 3 * self.joints.len());
+        out[..w * self.fixed.len()].fill(0.0);
+        for (r, (axis, _)) in self.fixed.iter().enumerate() {
+            for jj in 0..n {
+                out[r * w + 3 * jj + axis] = 1.0 / n as f64;
+            }
+        }
+    }
+    fn adot_xdot(&self, _x: &[f64], _v: &[f64], out: &mut [f64]) {
+        out[..self.fixed.len()].fill(0.0);
+    }
+}
