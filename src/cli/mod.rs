@@ -106,7 +106,7 @@ struct GenerateArgs {
 #[derive(Args, Debug)]
 struct BenchArgs {
     model: PathBuf,
-    #[arg(long, value_enum, default_value_t = SolverArg::Dense)]
+    #[arg(long, value_enum, default_value_t = SolverArg::Sparse)]
     solver: SolverArg,
     /// Steps to time.
     #[arg(long, default_value_t = 200)]
@@ -118,12 +118,14 @@ struct BenchArgs {
 #[derive(Clone, Copy, Debug, ValueEnum, PartialEq, Eq)]
 pub enum SolverArg {
     Dense,
+    Sparse,
 }
 
 impl From<SolverArg> for SolverKind {
     fn from(s: SolverArg) -> Self {
         match s {
             SolverArg::Dense => SolverKind::Dense,
+            SolverArg::Sparse => SolverKind::Sparse,
         }
     }
 }

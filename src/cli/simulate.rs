@@ -24,7 +24,7 @@ pub struct SimulateArgs {
     /// Write the summary as JSON.
     #[arg(long)]
     json: Option<PathBuf>,
-    #[arg(long, value_enum, default_value_t = SolverArg::Dense)]
+    #[arg(long, value_enum, default_value_t = SolverArg::Sparse)]
     solver: SolverArg,
 }
 

@@ -39,7 +39,7 @@ pub struct Options {
 impl Default for Options {
     fn default() -> Self {
         Options {
-            solver: SolverKind::Dense,
+            solver: SolverKind::Sparse,
             projection_tol_m: 1e-12,
             lock_tol_m: 1e-9,
             root_tol_m: 1e-13,
@@ -48,6 +48,10 @@ impl Default for Options {
         }
     }
 }
+
+/// Smallest sub-step, as a fraction of the requested step, tried before a
+/// non-converging Newmark iteration is reported.
+const MIN_SUBSTEP: f64 = 1.0 / 1024.0;
 
 /// Buffers and the factorization, reused across steps.
 struct Core {
@@ -434,15 +438,24 @@ impl Simulator {
         let t_end = self.state.t_s + dt;
         let mut events = 0;
         let mut guard = 0;
+        // Sub-step length: halved when the Newmark iteration does not converge
+        // (near singular configurations), doubled back after each success.
+        let mut h_try = dt;
         while t_end - self.state.t_s > 1e-12 * dt {
             guard += 1;
-            if guard > 10 + 4 * self.model.locks.len() {
+            if guard > 10_000 + 4 * self.model.locks.len() {
                 return Err(SolverError::Invalid(
-                    "too many latch events inside one step".into(),
+                    "too many sub-steps or latch events inside one step".into(),
                 ));
             }
-            let h = t_end - self.state.t_s;
-            self.core.newmark(&self.model, &self.state, h, &self.opts)?;
+            let h = h_try.min(t_end - self.state.t_s);
+            match self.core.newmark(&self.model, &self.state, h, &self.opts) {
+                Err(SolverError::NoConvergence { .. }) if h > dt * MIN_SUBSTEP => {
+                    h_try = 0.5 * h;
+                    continue;
+                }
+                other => other?,
+            }
             match self.first_crossing(h) {
                 None => {
                     self.accept(h);
@@ -453,6 +466,7 @@ impl Simulator {
                     events += self.latch()?;
                 }
             }
+            h_try = (2.0 * h_try).min(dt);
         }
         self.state.t_s = t_end.max(self.state.t_s);
         self.state.steps += 1;

@@ -63,7 +63,7 @@ impl Default for RingParams {
             tension_n: 15.0,
             max_tension_n: 60.0,
             friction_mu: 0.005,
-            damping_n_s_per_m: 0.0,
+            damping_n_s_per_m: 50.0,
             dt_s: 0.05,
             sync: "both".into(),
             cell_diagonals: true,
@@ -165,14 +165,15 @@ pub fn ring(p: &RingParams) -> Result<ModelDoc, String> {
     // A hub mount holds the ring's centre, which the symmetric deployment keeps at
     // the origin; a frame-0 mount holds O0_b where it starts, and the deployed ring
     // is placed likewise.
-    let hub =
-        match p.mount.as_str() {
-            "hub" => true,
-            "frame0" => false,
-            other => return Err(format!(
+    let hub = match p.mount.as_str() {
+        "hub" => true,
+        "frame0" => false,
+        other => {
+            return Err(format!(
                 "--mount {other}: use `hub` (held at the centre) or `frame0` (held at one post)"
-            )),
-        };
+            ))
+        }
+    };
     let shift = if hub {
         [0.0; 3]
     } else {
