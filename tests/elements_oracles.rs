@@ -303,6 +303,25 @@ fn centroid_fixture() -> Fixture {
     }
 }
 
+fn hinge_axis_fixture() -> Fixture {
+    // hinge p, post end q above it, radial member end r square to the post, chord end a
+    let pts = [
+        [2.0, 0.0, 0.0],
+        [2.0, 0.0, 0.5],
+        [1.3, 0.0, 0.0],
+        [1.9, 0.8, 0.2],
+    ];
+    let idx = [1, 4, 0, 3];
+    let placed: Vec<(usize, [f64; 3])> = idx.iter().copied().zip(pts).collect();
+    let x0 = layout(6, &placed);
+    Fixture {
+        label: "hinge_axis",
+        spec: spec("hinge_axis", &idx, &[]),
+        x0,
+        size: 1.0,
+    }
+}
+
 fn support_fixture(fix: &'static str) -> Fixture {
     let x0 = layout(3, &[(1, [0.4, -0.7, 1.1])]);
     Fixture {
@@ -326,6 +345,7 @@ fn all_fixtures() -> Vec<Fixture> {
         coplanar_fixture(),
         perpendicular_fixture(),
         centroid_fixture(),
+        hinge_axis_fixture(),
         sync_hinge_fixture("both"),
         sync_hinge_fixture("axial"),
         sync_hinge_fixture("radial"),
@@ -565,6 +585,7 @@ fn row_counts_match_the_documented_element_rows() {
         ("coplanar", 1),
         ("perpendicular", 1),
         ("centroid", 2),
+        ("hinge_axis", 1),
         ("sync_hinge both", 2),
         ("sync_hinge axial", 1),
         ("sync_hinge radial", 1),

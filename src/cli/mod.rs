@@ -18,6 +18,7 @@ macro_rules! say {
     }};
 }
 
+mod plot;
 mod simulate;
 
 #[derive(Parser, Debug)]

@@ -18,8 +18,14 @@
 //!   so its length^2 = c^2 + h^2 + 4 a h falls monotonically to its design length
 //!   sqrt(c^2 + h^2) as the ring opens. The drive cables run through these
 //!   diagonals, one cable per ring, from a motor at frame 0 around the ring and back.
-//! - Synchronizing gears at every post's bottom hinge make the two chords meeting
-//!   there fold as mirror images about the radial frame (`sync_hinge`).
+//! - The bottom chords are hinged to the posts by revolute joints whose axes are
+//!   fixed in the frame's body (`hinge_axis`: each chord keeps its azimuth about
+//!   the post), and synchronizing gears at every post's bottom hinge make the two
+//!   chords meeting there fold as mirror images (`sync_hinge`). Together they leave
+//!   exactly one mechanism, the deployment, before the latches and none after, and
+//!   keep the flat deployed state regular (hinges alone make it a singular point
+//!   with 16 extra infinitesimal mechanisms; gears alone leave a star-shaped
+//!   polygon mode that friction excites on larger rings).
 //! - Symmetric deployment is a one-parameter family in closed form:
 //!   r_o = sqrt(c_o^2 - 4 a^2) / (2 sin(pi/n)), r_i likewise with c_i.
 //! - Supports remove the 6 rigid-body motions in a way the symmetric motion
@@ -216,6 +222,22 @@ pub fn ring(p: &RingParams) -> Result<ModelDoc, String> {
             vec![("fix".into(), Param::Text(f.into()))],
         )
     };
+    // The inner ring is held concentric with the outer ring (the radial tie system):
+    // without it the inner ring could drift sideways, a mechanism that pulley
+    // friction excites.
+    let concentric: Vec<String> = (0..n)
+        .map(|k| j("I", k, "b"))
+        .chain((0..n).map(|k| j("O", k, "b")))
+        .collect();
+    elements.push(el(
+        "centroid",
+        "rings_concentric".into(),
+        &concentric,
+        vec![
+            ("fix".into(), Param::Text("xy".into())),
+            ("first_group".into(), Param::Num(n as f64)),
+        ],
+    ));
     if hub {
         // Centre of the outer bottom joints fixed; O0_b (on the x axis) held at y = 0
         // against spin; the mean heights of two blocks of 2m consecutive frames
@@ -294,6 +316,24 @@ pub fn ring(p: &RingParams) -> Result<ModelDoc, String> {
             ],
             vec![],
         ));
+        // Revolute hinges of the bottom chords, their axes fixed in the frame's
+        // body (post + radial member): each chord keeps its azimuth about the post.
+        for ring in ["O", "I"] {
+            let radial = if ring == "O" { "I" } else { "O" };
+            for (side, other) in [("next", k + 1), ("prev", k + n - 1)] {
+                elements.push(el(
+                    "hinge_axis",
+                    format!("{ring}{k}_hinge_{side}"),
+                    &[
+                        j(ring, k, "b"),
+                        j(ring, k, "t"),
+                        j(radial, k, "b"),
+                        j(ring, other, "b"),
+                    ],
+                    vec![],
+                ));
+            }
+        }
         // Synchronizing gears at both posts' bottom hinges: the two bottom chords
         // meeting there fold as mirror images about the radial frame's plane.
         for ring in ["O", "I"].iter().filter(|_| p.sync != "none") {
@@ -381,13 +421,16 @@ pub fn ring(p: &RingParams) -> Result<ModelDoc, String> {
         notes: vec![
             format!("Outer ring circumradius {ro_d:.4} m (diameter {:.4} m, the paper's 5.0 m aperture), inner {ri_d:.4} m, from the chords.", 2.0 * ro_d),
             "The paper prints the inner chord as 0.6167 mm; metres are meant.".into(),
-            "Frame k: outer post Ok_b-Ok_t and inner post Ik_b-Ik_t (0.5 m) joined by radial bars at top and bottom and kept planar: the planar truss element joining the rings.".into(),
+            "Frame k: outer post Ok_b-Ok_t and inner post Ik_b-Ik_t (0.5 m) joined at top and bottom by telescopic radial members mounted square to the posts and kept planar: the planar truss element joining the rings; the radial members latch at the ring depth.".into(),
             "Bay k: two posts, a top and a bottom chord, kept planar, and a diagonal sleeve from the low post's bottom to the high post's top; it latches at sqrt(c^2 + h^2).".into(),
-            "Folding is the zig-zag shear of the bays (even frames low, odd frames high); the symmetric deployment is a one-parameter family solved in closed form.".into(),
-            "Each radial frame has a passive diagonal sleeve, and each cell k a passive cross-diagonal sleeve Ok -> I(k+1); both latch at deployment and make the deployed ring rigid.".into(),
+            "Folding is the zig-zag shear of the bays (even frames low, odd frames high, both rings alike); the symmetric deployment is a one-parameter family solved in closed form.".into(),
+            "The bottom chords hang on revolute hinges whose axes are fixed in the frame (post + radial member), with synchronizing gears at each post: one mechanism, the deployment, so every latch engages at the same instant, with or without friction.".into(),
+            "Each cell k carries a passive cross-diagonal sleeve Ok -> I(k+1) that latches at deployment; with the latched radial members it makes the deployed ring rigid.".into(),
             "Two drive cables (outer, inner), each from a motor at frame 0 through every bay diagonal of its ring and back to frame 0, with a pulley at every post joint on the way.".into(),
-            "Supports: O0_b fixed; O(n/2)_b fixed in y; two other even frames' O_b fixed in z: the six rigid-body motions, compatible with the symmetric deployment.".into(),
-            "The start is part-folded (the fully stowed bundle is a singular configuration of this topology); no damping, so the deploy time differs from the paper's 102 s.".into(),
+            "Mount `hub` (default): the centre of the outer bottom joints is fixed, O0_b held at y = 0 against spin, and the mean heights of two blocks of frames against tilt; a symmetric deployment needs no reaction. Mount `frame0`: O0_b fixed, as on a boom.".into(),
+            "The inner ring is held concentric with the outer ring (centroid constraint, the radial tie system).".into(),
+            "Joint damping 50 N s/m (a model choice: the paper's 15 N on 0.25 kg joints would deploy in well under a second undamped; its 102 s implies heavy dissipation it does not state).".into(),
+            "The start is part-folded (outer bays sheared 35 deg; the inner bays fold flat at 44.8 deg, and the fully stowed bundle is singular for this topology).".into(),
             "Joint numbering differs from the paper's Fig. 8, which is missing: joints are named by frame and post.".into(),
         ],
         dt_s: p.dt_s,

@@ -1,6 +1,8 @@
 //! Centroid support: fixes some coordinates of the mean position of a group of
 //! joints, Phi_c = (1/N) sum_j X_{j,c} - Xbar0_c for each fixed axis c (linear,
-//! Adot Xdot = 0). It holds a structure at its centre, as a symmetric hub does,
+//! Adot Xdot = 0). With `first_group = K`, the first K joints and the rest form two
+//! groups whose centres keep their initial offset instead (concentric rings:
+//! Phi_c = mean_A X_c - mean_B X_c - (its initial value)). It holds a structure at its centre, as a symmetric hub does,
 //! without biasing a symmetric deployment: unlike a support at one joint it
 //! needs no reaction while the centre of mass stays put.
 
@@ -12,26 +14,45 @@ pub struct Centroid {
     joints: Vec<usize>,
     /// (axis, fixed mean value in m)
     fixed: Vec<(usize, f64)>,
+    /// Weight of each joint in the row: 1/N, or +1/K and -1/(N-K) for two groups.
+    weights: Vec<f64>,
 }
 
 pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, String> {
     if spec.joints.is_empty() {
         return Err("a centroid support needs at least one joint".into());
     }
-    spec.only_params(&["fix"])?;
+    spec.only_params(&["fix", "first_group"])?;
     let fix = spec.text("fix")?.unwrap_or("xyz");
     if fix.is_empty() || fix.chars().any(|c| !"xyz".contains(c)) {
         return Err(format!(
             "`fix` = \"{fix}\"; give the fixed axes as letters from \"xyz\", e.g. \"z\""
         ));
     }
-    let n = spec.joints.len() as f64;
+    let n = spec.joints.len();
+    let weights: Vec<f64> = match spec.num("first_group")? {
+        None => vec![1.0 / n as f64; n],
+        Some(k) if k >= 1.0 && k < n as f64 && k.fract() == 0.0 => {
+            let k = k as usize;
+            (0..n).map(|i| if i < k { 1.0 / k as f64 } else { -1.0 / (n - k) as f64 }).collect()
+        }
+        Some(k) => {
+            return Err(format!(
+                "`first_group` = {k} must be a whole number from 1 to {} (the joints of the first group)",
+                n - 1
+            ))
+        }
+    };
     let fixed = (0..3)
         .filter(|axis| fix.contains(['x', 'y', 'z'][*axis]))
         .map(|axis| {
             (
                 axis,
-                spec.joints.iter().map(|j| x0[3 * j + axis]).sum::<f64>() / n,
+                spec.joints
+                    .iter()
+                    .zip(&weights)
+                    .map(|(j, w)| w * x0[3 * j + axis])
+                    .sum::<f64>(),
             )
         })
         .collect();
@@ -39,6 +60,7 @@ pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, Stri
         name: spec.name.clone(),
         joints: spec.joints.clone(),
         fixed,
+        weights,
     }))
 }
 
@@ -56,9 +78,14 @@ impl Constraint for Centroid {
         self.fixed.len()
     }
     fn residual(&self, x: &[f64], out: &mut [f64]) {
-        let n = self.joints.len() as f64;
         for (r, (axis, value)) in self.fixed.iter().enumerate() {
-            out[r] = self.joints.iter().map(|j| x[3 * j + axis]).sum::<f64>() / n - value;
+            out[r] = self
+                .joints
+                .iter()
+                .zip(&self.weights)
+                .map(|(j, w)| w * x[3 * j + axis])
+                .sum::<f64>()
+                - value;
         }
     }
     fn jacobian(&self, _x: &[f64], out: &mut [f64]) {
@@ -66,7 +93,7 @@ impl Constraint for Centroid {
         out[..w * self.fixed.len()].fill(0.0);
         for (r, (axis, _)) in self.fixed.iter().enumerate() {
             for jj in 0..n {
-                out[r * w + 3 * jj + axis] = 1.0 / n as f64;
+                out[r * w + 3 * jj + axis] = self.weights[jj];
             }
         }
     }

@@ -16,6 +16,7 @@ pub mod angulated_scissor;
 pub mod bar;
 pub mod centroid;
 pub mod coplanar;
+pub mod hinge_axis;
 pub mod perpendicular;
 pub mod plate;
 pub mod scissor;
@@ -158,6 +159,11 @@ pub const REGISTRY: &[(&str, &str, Builder)] = &[
         "coplanar",
         "keeps 4 joints in one plane (1 row)",
         coplanar::build,
+    ),
+    (
+        "hinge_axis",
+        "revolute hinge fixed in a post's body: member p-a turns only about it (joints p, q, r, a)",
+        hinge_axis::build,
     ),
     (
         "centroid",

@@ -1,0 +1,230 @@
+//! The paper's double-ring truss: geometry against the paper's numbers, mobility,
+//! and full deployments (symmetric latching with mu = 0; friction delays it).
+
+use std::path::Path;
+use truss_deploy::model::generate::ring::{ring, ring_positions, RingParams};
+use truss_deploy::model::{load, parse};
+use truss_deploy::solver::{mobility, Model, Options, Simulator};
+
+fn model_of(p: &RingParams) -> Model {
+    parse(&ring(p).unwrap().to_toml(), "ring.toml")
+        .unwrap()
+        .model
+}
+
+fn deploy(model: Model) -> Simulator {
+    let dt = model.dt_s;
+    let mut sim = Simulator::new(model, Options::default()).unwrap();
+    while !sim.state().deployed {
+        assert!(sim.state().t_s < 300.0, "not deployed by 300 s");
+        sim.step(dt).unwrap();
+        assert!(
+            sim.state().max_violation_m <= 1e-9,
+            "|Phi| {} at t {}",
+            sim.state().max_violation_m,
+            sim.state().t_s
+        );
+    }
+    sim
+}
+
+fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
+    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
+}
+
+#[test]
+fn bundled_model_is_what_generate_writes() {
+    let text = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("models/double_ring.toml"),
+    )
+    .unwrap();
+    assert_eq!(text, ring(&RingParams::default()).unwrap().to_toml());
+}
+
+#[test]
+fn deployed_geometry_has_the_papers_dimensions() {
+    let p = RingParams::default();
+    let x = ring_positions(&p, 0.0).unwrap();
+    let n = p.sides;
+    assert_eq!(n, 18);
+    // joint order per frame: O_b, O_t, I_b, I_t
+    for k in 0..n {
+        let (o, i) = (4 * k, 4 * k + 2);
+        let (o2, i2) = (4 * ((k + 1) % n), 4 * ((k + 1) % n) + 2);
+        assert!((dist(x[o], x[o2]) - 0.8757).abs() < 1e-12, "outer chord");
+        assert!((dist(x[i], x[i2]) - 0.6167).abs() < 1e-12, "inner chord");
+        assert!((dist(x[o], x[o + 1]) - 0.5).abs() < 1e-12, "height");
+        assert!(
+            x[o][2].abs() < 1e-15 && x[i][2].abs() < 1e-15,
+            "deployed flat"
+        );
+    }
+    // aperture: outer circumdiameter, the paper's 5.0 m (5.04 m from its chord)
+    let d = 2.0 * (x[0][0].powi(2) + x[0][1].powi(2)).sqrt();
+    assert!((d - 5.0).abs() < 0.05, "aperture {d}");
+}
+
+#[test]
+fn folding_lengthens_every_latching_member_monotonically() {
+    // Along the symmetric family, each sleeve's length falls monotonically to its
+    // design length as the zig-zag offset a goes to 0: no sleeve can latch early.
+    let p = RingParams::default();
+    let model = model_of(&p);
+    let a_max = 0.5 * p.outer_chord_m * p.start_deg.to_radians().sin();
+    let mut prev: Option<Vec<f64>> = None;
+    for step in 0..=40 {
+        let a = a_max * (1.0 - step as f64 / 40.0);
+        let x: Vec<f64> = ring_positions(&p, a).unwrap().concat();
+        let gaps: Vec<f64> = model
+            .locks
+            .iter()
+            .map(|&e| model.elements[e].lock_gap(&x).unwrap())
+            .collect();
+        if step == 40 {
+            assert!(
+                gaps.iter().all(|g| g.abs() < 1e-12),
+                "every sleeve at its design length when deployed"
+            );
+        } else {
+            assert!(
+                gaps.iter().all(|g| *g > 0.0),
+                "sleeves longer than their design length while folded"
+            );
+        }
+        if let Some(pg) = prev {
+            assert!(gaps.iter().zip(&pg).all(|(g, q)| g < q), "monotone");
+        }
+        prev = Some(gaps);
+    }
+}
+
+#[test]
+fn mobility_before_and_after_latching() {
+    let model = model_of(&RingParams::default());
+    let free = vec![false; model.elements.len()];
+    let all: Vec<bool> = model
+        .elements
+        .iter()
+        .map(|e| e.lock_gap(&model.x0).is_some())
+        .collect();
+    let before = mobility::analyze(&model, &model.x0, &free);
+    let after = mobility::analyze(&model, model.reference.as_ref().unwrap(), &all);
+    assert!(
+        before.mechanisms >= 1,
+        "a deployable ring is a mechanism before latching"
+    );
+    assert_eq!(after.mechanisms, 0, "latched ring is rigid");
+    for m in [&before, &after] {
+        assert_eq!(
+            m.mechanisms as i64 - m.self_stress as i64,
+            m.coordinates as i64 - m.rows as i64
+        );
+    }
+}
+
+#[test]
+fn symmetric_ring_latches_everywhere_at_once_without_friction() {
+    let sim = deploy(model_of(&RingParams {
+        friction_mu: 0.0,
+        ..RingParams::default()
+    }));
+    let s = sim.state();
+    assert_eq!(
+        s.locks.len(),
+        sim.model().locks.len(),
+        "every sleeve latched"
+    );
+    let t0 = s.locks[0].time_s;
+    let spread = s
+        .locks
+        .iter()
+        .map(|l| (l.time_s - t0).abs())
+        .fold(0.0, f64::max);
+    assert!(spread < 1e-6, "latch times spread over {spread} s");
+    assert!(s.final_error_rel(sim.model()).unwrap() <= 1e-6);
+    assert_eq!(s.mechanisms, 0);
+}
+
+#[test]
+fn pulley_friction_delays_deployment_and_tension_falls_along_the_cable() {
+    let p = RingParams::default();
+    assert!(p.friction_mu > 0.0);
+    let model = model_of(&p);
+    let dt = model.dt_s;
+    let mut sim = Simulator::new(model, Options::default()).unwrap();
+    for _ in 0..40 {
+        sim.step(dt).unwrap();
+    }
+    // while reeling in, every pulley takes tension off (capstan law)
+    for c in &sim.state().cables {
+        assert!(
+            c.sliding_m_s.iter().all(|s| *s > 0.0),
+            "cable slides toward the motor"
+        );
+        for w in c.segment_tension_n.windows(2) {
+            assert!(
+                w[1] < w[0],
+                "tension falls away from the motor: {:?}",
+                c.segment_tension_n
+            );
+        }
+    }
+    while !sim.state().deployed {
+        assert!(sim.state().t_s < 300.0);
+        sim.step(dt).unwrap();
+    }
+    let with = sim.state().deploy_time_s.unwrap();
+    let without = deploy(model_of(&RingParams {
+        friction_mu: 0.0,
+        ..p
+    }))
+    .state()
+    .deploy_time_s
+    .unwrap();
+    assert!(
+        with > without,
+        "friction {with} s vs frictionless {without} s"
+    );
+    assert!(sim.state().energy.friction_loss_j > 0.0);
+    assert!(sim.state().final_error_rel(sim.model()).unwrap() <= 1e-6);
+}
+
+#[test]
+fn a_36_sided_ring_deploys_to_its_reference() {
+    let sim = deploy(model_of(&RingParams {
+        sides: 36,
+        ..RingParams::default()
+    }));
+    assert!(sim.state().final_error_rel(sim.model()).unwrap() <= 1e-6);
+}
+
+#[test]
+fn frame_mounted_ring_also_deploys_to_its_reference() {
+    // Held at one post, the ring's centre must move: the support reaction breaks
+    // the symmetry, yet every latch engages and the geometry is exact.
+    let sim = deploy(model_of(&RingParams {
+        mount: "frame0".into(),
+        ..RingParams::default()
+    }));
+    assert!(sim.state().final_error_rel(sim.model()).unwrap() <= 1e-6);
+}
+
+#[test]
+fn bundled_ring_loads() {
+    let m = load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("models/double_ring.toml"))
+        .unwrap()
+        .model;
+    assert_eq!(m.n_joints(), 72);
+}
+
+#[test]
+fn odd_or_out_of_range_sides_are_rejected() {
+    for n in [4, 7, 362] {
+        let e = ring(&RingParams {
+            sides: n,
+            ..RingParams::default()
+        })
+        .unwrap_err();
+        assert!(e.contains("--sides"), "{e}");
+    }
+}
