@@ -1,6 +1,6 @@
 //! `truss-deploy simulate`: offline run to full deployment.
 
-use super::{make_simulator, write_json, Failure, SolverArg};
+use super::{make_simulator, plot, write_json, Failure, SolverArg};
 use crate::solver::{Energy, LockEvent, Simulator};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -24,6 +24,15 @@ pub struct SimulateArgs {
     /// Write the summary as JSON.
     #[arg(long)]
     json: Option<PathBuf>,
+    /// Draw the x, y, z histories of the --joints, latch events marked (SVG).
+    #[arg(long, value_name = "FILE.svg")]
+    plot: Option<PathBuf>,
+    /// Joints for --plot, comma-separated; default: the 3 that move the most.
+    #[arg(long, value_delimiter = ',', value_name = "A,B,C")]
+    joints: Vec<String>,
+    /// Draw the truss at 6 instants of the deployment in a 3-D projection (SVG).
+    #[arg(long, value_name = "FILE.svg")]
+    snapshots: Option<PathBuf>,
     #[arg(long, value_enum, default_value_t = SolverArg::Sparse)]
     solver: SolverArg,
 }
@@ -84,6 +93,14 @@ pub fn run(a: SimulateArgs) -> Result<(), Failure> {
     let mut sim = make_simulator(&a.model, a.solver.into())?;
     let dt = a.dt.unwrap_or(sim.model().dt_s);
     let until = a.until.unwrap_or(sim.model().end_time_s);
+    let mut rec = plot::Recorder::new(
+        sim.model(),
+        a.plot.as_deref(),
+        &a.joints,
+        a.snapshots.as_deref(),
+    )
+    .map_err(Failure::input)?;
+    rec.record(sim.state().t_s, &sim.state().x);
     let mut csv = match &a.csv {
         Some(p) => {
             let f = std::fs::File::create(p)
@@ -115,6 +132,7 @@ pub fn run(a: SimulateArgs) -> Result<(), Failure> {
         if let Some(w) = csv.as_mut() {
             csv_row(w, &sim).map_err(|e| Failure::run(e.to_string()))?;
         }
+        rec.record(sim.state().t_s, &sim.state().x);
         bar.inc(1);
         if sim.state().steps % 20 == 0 {
             bar.set_message(format!(
@@ -154,6 +172,13 @@ pub fn run(a: SimulateArgs) -> Result<(), Failure> {
     print_summary(&summary);
     if let Some(j) = &a.json {
         write_json(j, &summary)?;
+    }
+    let locks: Vec<(String, f64)> = s.locks.iter().map(|l| (l.name.clone(), l.time_s)).collect();
+    if let Err(e) = rec.finish(m, &locks) {
+        match &error {
+            Some(_) => eprintln!("error: {e}"),
+            None => return Err(Failure::run(e)),
+        }
     }
     match error {
         Some(e) => Err(Failure::run(e)),

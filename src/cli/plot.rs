@@ -1,0 +1,833 @@
+//! SVG pictures for `simulate --plot` (joint coordinate histories with the latch
+//! events marked, the paper's Fig. 11 and 14) and `simulate --snapshots` (the truss
+//! at several instants in an oblique 3-D projection, Fig. 10 and 13).
+//!
+//! Drawn with `plotters` into a string (SVG backend only, no font files needed),
+//! then written in one go, so a failure to write names the file.
+
+use crate::solver::Model;
+use plotters::coord::Shift;
+use plotters::element::DashedPathElement;
+use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
+use std::path::{Path, PathBuf};
+
+type Area<'a> = DrawingArea<SVGBackend<'a>, Shift>;
+
+const FONT: &str = "sans-serif";
+const PALETTE: [RGBColor; 10] = [
+    RGBColor(31, 119, 180),
+    RGBColor(214, 39, 40),
+    RGBColor(44, 160, 44),
+    RGBColor(255, 127, 14),
+    RGBColor(148, 103, 189),
+    RGBColor(140, 86, 75),
+    RGBColor(227, 119, 194),
+    RGBColor(127, 127, 127),
+    RGBColor(188, 189, 34),
+    RGBColor(23, 190, 207),
+];
+const LOCK_COLOR: RGBColor = RGBColor(90, 90, 90);
+const MEMBER_COLOR: RGBColor = RGBColor(30, 70, 140);
+const SLEEVE_COLOR: RGBColor = RGBColor(215, 80, 20);
+const REFERENCE_COLOR: RGBColor = RGBColor(200, 200, 200);
+/// Lines with more points than this are thinned (every k-th point and the last).
+/// (The SVG backend rounds to whole pixels: a line with a point on every pixel
+/// column looks like a staircase, so keep about one point per two columns.)
+const MAX_POINTS: usize = 500;
+
+fn style(size: u32, h: HPos, v: VPos) -> TextStyle<'static> {
+    TextStyle::from((FONT, size).into_font()).pos(Pos::new(h, v))
+}
+
+fn write_svg(path: &Path, svg: String) -> Result<(), String> {
+    std::fs::write(path, svg).map_err(|e| format!("cannot write {}: {e}", path.display()))
+}
+
+fn drawing<E: std::fmt::Display>(path: &Path) -> impl Fn(E) -> String + '_ {
+    move |e| format!("cannot draw {}: {e}", path.display())
+}
+
+/// Joints drawn first get wider lines, so that a later joint on the same
+/// coordinate (common in symmetric trusses) leaves the earlier one visible.
+fn line_width(j: usize, n: usize) -> u32 {
+    (1 + n.saturating_sub(j)).clamp(2, 5) as u32
+}
+
+/// Distinct lock times (simultaneous latches grouped): (time, names).
+fn group_locks(locks: &[(String, f64)], tol: f64) -> Vec<(f64, Vec<&str>)> {
+    let mut sorted: Vec<&(String, f64)> = locks.iter().filter(|l| l.1.is_finite()).collect();
+    sorted.sort_by(|a, b| a.1.total_cmp(&b.1));
+    let mut groups: Vec<(f64, Vec<&str>)> = Vec::new();
+    for (name, t) in sorted {
+        match groups.last_mut() {
+            Some((t0, names)) if (*t - *t0).abs() <= tol => names.push(name),
+            _ => groups.push((*t, vec![name])),
+        }
+    }
+    groups
+}
+
+fn lock_label(t: f64, names: &[&str]) -> String {
+    match names {
+        [one] => format!("latch {one}, t = {t:.2} s"),
+        _ => format!("{} latches, t = {t:.2} s", names.len()),
+    }
+}
+
+/// Tick labels with as many decimals as the tick spacing needs, and no "-0".
+fn tick_label(v: f64, span: f64) -> String {
+    let step = span / 6.0;
+    let decimals = if step > 0.0 && step.is_finite() {
+        (-step.log10().floor()).clamp(0.0, 9.0) as usize
+    } else {
+        1
+    };
+    let s = format!("{v:.decimals$}");
+    if s.trim_start_matches('-')
+        .chars()
+        .all(|c| c == '0' || c == '.')
+    {
+        s.trim_start_matches('-').to_string()
+    } else {
+        s
+    }
+}
+
+/// A range that contains all `values`, padded, at least `min_span` wide.
+fn padded_range(values: impl Iterator<Item = f64>, min_span: f64) -> (f64, f64) {
+    let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+    for v in values.filter(|v| v.is_finite()) {
+        lo = lo.min(v);
+        hi = hi.max(v);
+    }
+    if !lo.is_finite() {
+        return (-1.0, 1.0);
+    }
+    let span = hi - lo;
+    if span < min_span {
+        let mid = 0.5 * (lo + hi);
+        return (mid - 0.5 * min_span, mid + 0.5 * min_span);
+    }
+    (lo - 0.06 * span, hi + 0.06 * span)
+}
+
+/// Three stacked panels (x, y, z in m against t in s), one line per joint, the
+/// latch events as vertical dashed lines (one per distinct time, labelled with
+/// the lock's name or the number of simultaneous latches), legend beside the panels.
+pub fn histories(
+    path: &Path,
+    title: &str,
+    times: &[f64],
+    joints: &[(String, Vec<[f64; 3]>)],
+    locks: &[(String, f64)],
+) -> Result<(), String> {
+    let err = drawing(path);
+    let n = times.len();
+    let stride = n.div_ceil(MAX_POINTS).max(1);
+    let idx: Vec<usize> = (0..n)
+        .step_by(stride)
+        .chain((n > 0 && !(n - 1).is_multiple_of(stride)).then_some(n - 1))
+        .collect();
+    let (t0, t1) = match (times.first(), times.last()) {
+        (Some(&a), Some(&b)) if b > a => (a, b),
+        (Some(&a), _) => (a, a + 1.0),
+        _ => (0.0, 1.0),
+    };
+    let groups = group_locks(locks, 1e-3 * (t1 - t0));
+    let t1 = t1 + 0.015 * (t1 - t0);
+    // A coordinate that hardly moves gets a range of a tenth of the largest
+    // motion (not a magnified view of rounding noise).
+    let spans: Vec<f64> = (0..3)
+        .map(|k| {
+            let v = joints.iter().flat_map(|j| j.1.iter().map(move |p| p[k]));
+            let (lo, hi) = v
+                .filter(|v| v.is_finite())
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+                    (a.min(v), b.max(v))
+                });
+            if hi >= lo {
+                hi - lo
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    let min_span = (0.1 * spans.iter().cloned().fold(0.0, f64::max)).max(1e-3);
+    let longest = joints
+        .iter()
+        .map(|j| j.0.chars().count())
+        .chain(std::iter::once(14))
+        .max()
+        .unwrap_or(14);
+    let legend_w = (longest as u32 * 9 + 60).min(320);
+    let (w, h) = (1000 + legend_w, 860);
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (w, h)).into_drawing_area();
+        root.fill(&WHITE).map_err(&err)?;
+        let body = root.titled(title, (FONT, 22)).map_err(&err)?;
+        let (main, legend) = body.split_horizontally(w - legend_w);
+        let panels = main.split_evenly((3, 1));
+        for (k, panel) in panels.iter().enumerate() {
+            let axis = ["x", "y", "z"][k];
+            let (lo, hi) = padded_range(
+                joints
+                    .iter()
+                    .flat_map(|j| idx.iter().filter_map(|&i| j.1.get(i).map(|p| p[k]))),
+                min_span,
+            );
+            let (tspan, yspan) = (t1 - t0, hi - lo);
+            let (tfmt, yfmt) = (
+                move |v: &f64| tick_label(*v, tspan),
+                move |v: &f64| tick_label(*v, yspan),
+            );
+            let mut chart = ChartBuilder::on(panel)
+                .margin(6)
+                .margin_right(20)
+                .margin_top(if k == 0 { 22 } else { 6 })
+                .x_label_area_size(if k == 2 { 45 } else { 28 })
+                .y_label_area_size(80)
+                .build_cartesian_2d(t0..t1, lo..hi)
+                .map_err(&err)?;
+            let mut mesh = chart.configure_mesh();
+            mesh.light_line_style(RGBColor(238, 238, 238))
+                .bold_line_style(RGBColor(215, 215, 215))
+                .y_desc(format!("{axis} (m)"))
+                .label_style((FONT, 15))
+                .axis_desc_style((FONT, 17))
+                .x_labels(10)
+                .y_labels(6)
+                .x_label_formatter(&tfmt)
+                .y_label_formatter(&yfmt);
+            if k == 2 {
+                mesh.x_desc("t (s)");
+            }
+            mesh.draw().map_err(&err)?;
+            for (t, _) in &groups {
+                chart
+                    .draw_series(std::iter::once(DashedPathElement::new(
+                        vec![(*t, lo), (*t, hi)],
+                        6,
+                        4,
+                        LOCK_COLOR.stroke_width(1),
+                    )))
+                    .map_err(&err)?;
+            }
+            for (j, (_, pos)) in joints.iter().enumerate() {
+                let color = PALETTE[j % PALETTE.len()];
+                chart
+                    .draw_series(LineSeries::new(
+                        idx.iter()
+                            .filter_map(|&i| Some((*times.get(i)?, pos.get(i)?[k])))
+                            .filter(|p| p.1.is_finite()),
+                        color.stroke_width(line_width(j, joints.len())),
+                    ))
+                    .map_err(&err)?;
+            }
+            if k == 0 {
+                // Lock labels above the top panel, just right of their line (left of it
+                // near the right edge), staggered when several times are close.
+                let (xr, yr) = chart.plotting_area().get_pixel_range();
+                let (px0, px1, py0) = (xr.start, xr.end, yr.start);
+                let mut last_right = i32::MIN;
+                let mut row = 0;
+                for (t, names) in &groups {
+                    let (x, _) = chart.backend_coord(&(*t, hi));
+                    let label = lock_label(*t, names);
+                    let width = (label.len() as i32) * 7;
+                    let right_side = x + 4 + width <= px1.max(px0 + 1);
+                    let (left, anchor, tx) = if right_side {
+                        (x + 4, HPos::Left, x + 4)
+                    } else {
+                        (x - 4 - width, HPos::Right, x - 4)
+                    };
+                    row = if left <= last_right { (row + 1) % 2 } else { 0 };
+                    last_right = left + width;
+                    root.draw(&Text::new(
+                        label,
+                        (tx, py0 - 6 - 14 * row),
+                        (FONT, 14)
+                            .into_font()
+                            .color(&LOCK_COLOR)
+                            .pos(Pos::new(anchor, VPos::Bottom)),
+                    ))
+                    .map_err(&err)?;
+                }
+            }
+        }
+        // Legend column: never covers data.
+        let (lx, mut ly) = (10, 60);
+        legend
+            .draw(&Text::new("joints", (lx, ly - 24), (FONT, 16)))
+            .map_err(&err)?;
+        for (j, (name, _)) in joints.iter().enumerate() {
+            let color = PALETTE[j % PALETTE.len()];
+            legend
+                .draw(&PathElement::new(
+                    vec![(lx, ly), (lx + 30, ly)],
+                    color.stroke_width(line_width(j, joints.len())),
+                ))
+                .map_err(&err)?;
+            legend
+                .draw(&Text::new(
+                    name.clone(),
+                    (lx + 38, ly),
+                    style(15, HPos::Left, VPos::Center),
+                ))
+                .map_err(&err)?;
+            ly += 24;
+        }
+        if !groups.is_empty() {
+            ly += 12;
+            legend
+                .draw(&DashedPathElement::new(
+                    vec![(lx, ly), (lx + 30, ly)],
+                    6,
+                    4,
+                    LOCK_COLOR.stroke_width(1),
+                ))
+                .map_err(&err)?;
+            legend
+                .draw(&Text::new(
+                    "latch event",
+                    (lx + 38, ly),
+                    style(15, HPos::Left, VPos::Center),
+                ))
+                .map_err(&err)?;
+        }
+        root.present().map_err(&err)?;
+    }
+    write_svg(path, svg)
+}
+
+/// Oblique view: azimuth about z, then elevation; orthographic.
+struct Projection {
+    right: [f64; 3],
+    up: [f64; 3],
+}
+
+impl Projection {
+    fn new(azimuth_deg: f64, elevation_deg: f64) -> Self {
+        let (sa, ca) = azimuth_deg.to_radians().sin_cos();
+        let (se, ce) = elevation_deg.to_radians().sin_cos();
+        // Viewer at direction (ce*ca, ce*sa, se) from the origin, z up on the page.
+        Projection {
+            right: [-sa, ca, 0.0],
+            up: [-se * ca, -se * sa, ce],
+        }
+    }
+    fn apply(&self, p: &[f64; 3]) -> (f64, f64) {
+        let dot = |a: &[f64; 3]| a[0] * p[0] + a[1] * p[1] + a[2] * p[2];
+        (dot(&self.right), dot(&self.up))
+    }
+}
+
+/// A "nice" length (1, 2 or 5 times a power of ten) no longer than `x`.
+fn nice_length(x: f64) -> f64 {
+    if !(x.is_finite() && x > 0.0) {
+        return 1.0;
+    }
+    let p = 10f64.powf(x.log10().floor());
+    [5.0, 2.0, 1.0]
+        .into_iter()
+        .map(|m| m * p)
+        .find(|&v| v <= x)
+        .unwrap_or(p)
+}
+
+/// A grid of panels, each the truss at one instant (`frames`: time and one
+/// position per joint) in the same oblique projection, scale and centre, so the
+/// growth is visible. Sleeves are drawn in their own colour; the reference
+/// deployed geometry, when given, as a light outline behind.
+pub fn snapshots(
+    path: &Path,
+    title: &str,
+    members: &[(usize, usize, bool)],
+    frames: &[(f64, Vec<[f64; 3]>)],
+    reference: Option<&[[f64; 3]]>,
+) -> Result<(), String> {
+    let err = drawing(path);
+    let proj = Projection::new(-55.0, 25.0);
+    let n = frames.len().max(1);
+    let cols = n.min(3);
+    let rows = n.div_ceil(cols);
+
+    // Common bounds in projected coordinates.
+    let all = frames
+        .iter()
+        .flat_map(|f| f.1.iter())
+        .chain(reference.into_iter().flatten())
+        .filter(|p| p.iter().all(|v| v.is_finite()))
+        .map(|p| proj.apply(p));
+    let (mut u0, mut u1, mut v0, mut v1) = (
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+        f64::INFINITY,
+        f64::NEG_INFINITY,
+    );
+    for (u, v) in all {
+        u0 = u0.min(u);
+        u1 = u1.max(u);
+        v0 = v0.min(v);
+        v1 = v1.max(v);
+    }
+    if !u0.is_finite() {
+        (u0, u1, v0, v1) = (-1.0, 1.0, -1.0, 1.0);
+    }
+    let span = (u1 - u0).max(v1 - v0).max(1e-6);
+    let (du, dv) = ((u1 - u0).max(1e-3 * span), (v1 - v0).max(1e-3 * span));
+    // Panel height follows the picture's aspect (within limits): a flat ring
+    // gets short panels, a tall mast tall ones.
+    let (caption_h, margin) = (30.0, 18.0);
+    let pw = 420u32;
+    let inner_w = pw as f64 - 2.0 * margin;
+    let inner_h = (inner_w * dv / du).clamp(160.0, 560.0);
+    let ph = (inner_h + caption_h + 2.0 * margin).round() as u32;
+    let (title_h, footer_h) = (44u32, 56u32);
+    let (w, h) = (pw * cols as u32, title_h + ph * rows as u32 + footer_h);
+    let scale = (inner_w / du).min(inner_h / dv);
+    let (uc, vc) = (0.5 * (u0 + u1), 0.5 * (v0 + v1));
+    let (cx, cy) = (pw as f64 / 2.0, caption_h + margin + inner_h / 2.0);
+    let to_px = |p: &[f64; 3]| -> Option<(i32, i32)> {
+        if !p.iter().all(|v| v.is_finite()) {
+            return None;
+        }
+        let (u, v) = proj.apply(p);
+        Some((
+            (cx + (u - uc) * scale).round() as i32,
+            (cy - (v - vc) * scale).round() as i32,
+        ))
+    };
+
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (w, h)).into_drawing_area();
+        root.fill(&WHITE).map_err(&err)?;
+        let (top, rest) = root.split_vertically(title_h);
+        let (grid, footer) = rest.split_vertically(ph * rows as u32);
+        top.draw(&Text::new(
+            title.to_string(),
+            (w as i32 / 2, title_h as i32 / 2),
+            style(22, HPos::Center, VPos::Center),
+        ))
+        .map_err(&err)?;
+        let panels = grid.split_evenly((rows, cols));
+        for (panel, (t, x)) in panels.iter().zip(frames) {
+            draw_frame(panel, (pw, ph), *t, x, members, reference, &to_px).map_err(&err)?;
+        }
+        draw_footer(&footer, w, scale, reference.is_some(), &proj).map_err(&err)?;
+        root.present().map_err(&err)?;
+    }
+    write_svg(path, svg)
+}
+
+/// Joint position to panel pixel (None for a non-finite position).
+type ToPixel<'a> = dyn Fn(&[f64; 3]) -> Option<(i32, i32)> + 'a;
+
+type DrawResult = Result<(), DrawingAreaErrorKind<std::io::Error>>;
+
+fn draw_frame(
+    panel: &Area,
+    (pw, ph): (u32, u32),
+    t: f64,
+    x: &[[f64; 3]],
+    members: &[(usize, usize, bool)],
+    reference: Option<&[[f64; 3]]>,
+    to_px: &ToPixel,
+) -> DrawResult {
+    panel.draw(&Rectangle::new(
+        [(4, 4), (pw as i32 - 4, ph as i32 - 4)],
+        RGBColor(200, 200, 200).stroke_width(1),
+    ))?;
+    panel.draw(&Text::new(
+        format!("t = {t:.2} s"),
+        (14, 12),
+        style(17, HPos::Left, VPos::Top),
+    ))?;
+    let segment = |pts: &[[f64; 3]], a: usize, b: usize| -> Option<((i32, i32), (i32, i32))> {
+        Some((to_px(pts.get(a)?)?, to_px(pts.get(b)?)?))
+    };
+    if let Some(r) = reference {
+        for &(a, b, _) in members {
+            if let Some((p, q)) = segment(r, a, b) {
+                panel.draw(&PathElement::new(
+                    vec![p, q],
+                    REFERENCE_COLOR.stroke_width(1),
+                ))?;
+            }
+        }
+    }
+    // Bars and rods first, sleeves on top.
+    for sleeves in [false, true] {
+        for &(a, b, s) in members.iter().filter(|m| m.2 == sleeves) {
+            let color = if s { SLEEVE_COLOR } else { MEMBER_COLOR };
+            let width = if s && members.len() <= 60 { 2 } else { 1 };
+            if let Some((p, q)) = segment(x, a, b) {
+                panel.draw(&PathElement::new(vec![p, q], color.stroke_width(width)))?;
+            }
+        }
+    }
+    // Joints of members only (cable drums and the like are not part of the truss).
+    let mut used = vec![false; x.len()];
+    for &(a, b, _) in members {
+        for j in [a, b] {
+            if let Some(u) = used.get_mut(j) {
+                *u = true;
+            }
+        }
+    }
+    for p in x
+        .iter()
+        .zip(&used)
+        .filter(|(_, &u)| u)
+        .filter_map(|(p, _)| to_px(p))
+    {
+        panel.draw(&Circle::new(p, 2, BLACK.filled()))?;
+    }
+    Ok(())
+}
+
+fn draw_footer(
+    footer: &Area,
+    w: u32,
+    scale: f64,
+    reference: bool,
+    proj: &Projection,
+) -> DrawResult {
+    let y = 24;
+    let mut x = 20;
+    let text = |s: &str| (s.to_string(), style(15, HPos::Left, VPos::Center));
+    let mut entries: Vec<(RGBColor, u32, &str)> = vec![
+        (MEMBER_COLOR, 1, "bars and rods"),
+        (SLEEVE_COLOR, 2, "sleeves"),
+    ];
+    if reference {
+        entries.push((REFERENCE_COLOR, 1, "reference deployed geometry"));
+    }
+    for (color, width, label) in entries {
+        footer.draw(&PathElement::new(
+            vec![(x, y), (x + 30, y)],
+            color.stroke_width(width + 1),
+        ))?;
+        let (s, style) = text(label);
+        footer.draw(&Text::new(s, (x + 38, y), style))?;
+        x += 38 + label.len() as i32 * 8 + 30;
+    }
+    // Scale bar: a nice length of at most ~120 px.
+    let len_m = nice_length(120.0 / scale);
+    let len_px = (len_m * scale).round() as i32;
+    let x1 = w as i32 - 30;
+    let x0 = x1 - len_px;
+    let label = if len_m >= 0.01 {
+        format!("{} m", tick_label(len_m, len_m * 6.0))
+    } else {
+        format!("{} mm", tick_label(len_m * 1000.0, len_m * 6000.0))
+    };
+    // Axis triad, left of the scale bar.
+    let origin = (x0 - 110, y + 6);
+    for (k, name) in ["x", "y", "z"].iter().enumerate() {
+        let mut e = [0.0; 3];
+        e[k] = 1.0;
+        let (u, v) = proj.apply(&e);
+        let end = (
+            origin.0 + (u * 20.0).round() as i32,
+            origin.1 - (v * 20.0).round() as i32,
+        );
+        let at = (
+            origin.0 + (u * 29.0).round() as i32,
+            origin.1 - (v * 29.0).round() as i32,
+        );
+        footer.draw(&PathElement::new(
+            vec![origin, end],
+            RGBColor(110, 110, 110).stroke_width(1),
+        ))?;
+        footer.draw(&Text::new(
+            name.to_string(),
+            at,
+            style(12, HPos::Center, VPos::Center).color(&RGBColor(90, 90, 90)),
+        ))?;
+    }
+    footer.draw(&PathElement::new(
+        vec![(x0, y), (x1, y)],
+        BLACK.stroke_width(2),
+    ))?;
+    for xe in [x0, x1] {
+        footer.draw(&PathElement::new(
+            vec![(xe, y - 5), (xe, y + 5)],
+            BLACK.stroke_width(2),
+        ))?;
+    }
+    footer.draw(&Text::new(
+        label,
+        (x0 - 8, y),
+        style(15, HPos::Right, VPos::Center),
+    ))?;
+    Ok(())
+}
+
+/// The members to draw: every element's joint pairs (rods of scissors, plate
+/// edges, bars, sleeves); constraint-only elements (coplanar, perpendicular,
+/// sync_hinge, support, centroid) are not members. `true` marks a sleeve.
+pub fn members(model: &Model) -> Vec<(usize, usize, bool)> {
+    let mut out = Vec::new();
+    for e in &model.elements {
+        let j = e.joints();
+        let sleeve = e.lock_gap(&model.x0).is_some();
+        let pairs: &[(usize, usize)] = match (e.kind(), j.len()) {
+            ("scissor", 4) => &[(0, 1), (2, 3)],
+            ("angulated_scissor", 5) => &[(0, 1), (1, 2), (3, 1), (1, 4)],
+            ("plate", 4) => &[(0, 1), (1, 2), (2, 3), (3, 0)],
+            ("bar" | "sleeve", 2) => &[(0, 1)],
+            // coplanar, perpendicular, sync_hinge, hinge_axis, support, centroid:
+            // constraints between members, not members.
+            _ => &[],
+        };
+        out.extend(pairs.iter().map(|&(a, b)| (j[a], j[b], sleeve)));
+    }
+    out
+}
+
+/// Frames kept for `--snapshots`: every `stride`-th state, the stride doubling
+/// whenever the buffer fills, so memory stays bounded for any run length and the
+/// kept frames stay evenly spaced in steps; the latest state is kept apart.
+struct FrameBuffer {
+    stride: u64,
+    seen: u64,
+    frames: Vec<(f64, Vec<f64>)>,
+    last: (f64, Vec<f64>),
+}
+
+const FRAME_CAP: usize = 240;
+
+impl FrameBuffer {
+    fn push(&mut self, t: f64, x: &[f64]) {
+        if self.seen.is_multiple_of(self.stride) {
+            if self.frames.len() >= FRAME_CAP {
+                let mut k = 0;
+                self.frames.retain(|_| {
+                    k += 1;
+                    k % 2 == 1
+                });
+                self.stride *= 2;
+            }
+            if self.seen.is_multiple_of(self.stride) {
+                self.frames.push((t, x.to_vec()));
+            }
+        }
+        self.seen += 1;
+        self.last = (t, x.to_vec());
+    }
+
+    /// `n` frames evenly spaced in time, first and last included.
+    fn pick(&self, n: usize) -> Vec<(f64, Vec<[f64; 3]>)> {
+        let mut all: Vec<&(f64, Vec<f64>)> = self.frames.iter().collect();
+        if all.last().is_none_or(|f| f.0 < self.last.0) {
+            all.push(&self.last);
+        }
+        let (t0, t1) = (all[0].0, all[all.len() - 1].0);
+        let mut chosen: Vec<usize> = Vec::new();
+        for i in 0..n {
+            let target = t0 + (t1 - t0) * i as f64 / (n - 1).max(1) as f64;
+            let best = (0..all.len())
+                .min_by(|&a, &b| {
+                    (all[a].0 - target)
+                        .abs()
+                        .total_cmp(&(all[b].0 - target).abs())
+                })
+                .unwrap_or(0);
+            if !chosen.contains(&best) {
+                chosen.push(best);
+            }
+        }
+        chosen
+            .into_iter()
+            .map(|i| (all[i].0, to_points(&all[i].1)))
+            .collect()
+    }
+}
+
+fn to_points(x: &[f64]) -> Vec<[f64; 3]> {
+    x.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect()
+}
+
+/// What `simulate --plot/--snapshots` records during the run; a no-op when
+/// neither was asked for.
+pub struct Recorder {
+    plot: Option<(PathBuf, Vec<usize>)>,
+    times: Vec<f64>,
+    history: Vec<Vec<[f64; 3]>>,
+    snapshots: Option<(PathBuf, FrameBuffer)>,
+}
+
+/// Number of instants in `--snapshots`.
+pub const SNAPSHOT_FRAMES: usize = 6;
+
+impl Recorder {
+    /// Resolves the joint names (unknown names are an error listing the valid
+    /// ones; none given: up to 3 joints that move the most from the initial to the
+    /// reference geometry, or the last 3 without a reference) and checks that the
+    /// output files can be created, so that bad input fails before the run.
+    pub fn new(
+        model: &Model,
+        plot: Option<&Path>,
+        joints: &[String],
+        snapshots: Option<&Path>,
+    ) -> Result<Recorder, String> {
+        if plot.is_none() && !joints.is_empty() {
+            return Err("--joints selects the joints of --plot FILE.svg; give --plot too".into());
+        }
+        let plot = match plot {
+            None => None,
+            Some(p) => Some((p.to_path_buf(), resolve_joints(model, joints)?)),
+        };
+        for p in plot
+            .as_ref()
+            .map(|p| p.0.as_path())
+            .into_iter()
+            .chain(snapshots)
+        {
+            std::fs::File::create(p).map_err(|e| format!("cannot write {}: {e}", p.display()))?;
+        }
+        let n = plot.as_ref().map_or(0, |p| p.1.len());
+        Ok(Recorder {
+            plot,
+            times: Vec::new(),
+            history: vec![Vec::new(); n],
+            snapshots: snapshots.map(|p| {
+                (
+                    p.to_path_buf(),
+                    FrameBuffer {
+                        stride: 1,
+                        seen: 0,
+                        frames: Vec::new(),
+                        last: (0.0, Vec::new()),
+                    },
+                )
+            }),
+        })
+    }
+
+    /// Call with the initial state and after every step.
+    pub fn record(&mut self, t: f64, x: &[f64]) {
+        if let Some((_, joints)) = &self.plot {
+            self.times.push(t);
+            for (h, &j) in self.history.iter_mut().zip(joints) {
+                h.push([x[3 * j], x[3 * j + 1], x[3 * j + 2]]);
+            }
+        }
+        if let Some((_, frames)) = &mut self.snapshots {
+            frames.push(t, x);
+        }
+    }
+
+    /// Writes the pictures from what was recorded (also after a failed run).
+    pub fn finish(&self, model: &Model, locks: &[(String, f64)]) -> Result<(), String> {
+        if let Some((path, joints)) = &self.plot {
+            let series: Vec<(String, Vec<[f64; 3]>)> = joints
+                .iter()
+                .zip(&self.history)
+                .map(|(&j, h)| (model.joints[j].name.clone(), h.clone()))
+                .collect();
+            histories(
+                path,
+                &format!("{}: joint coordinates", model.name),
+                &self.times,
+                &series,
+                locks,
+            )?;
+        }
+        if let Some((path, frames)) = &self.snapshots {
+            if frames.seen > 0 {
+                let reference = model.reference.as_deref().map(to_points);
+                snapshots(
+                    path,
+                    &format!("{}: deployment", model.name),
+                    &members(model),
+                    &frames.pick(SNAPSHOT_FRAMES),
+                    reference.as_deref(),
+                )?;
+            }
+        }
+        Ok(())
+    }
+}
+
+fn resolve_joints(model: &Model, names: &[String]) -> Result<Vec<usize>, String> {
+    let names: Vec<&str> = names
+        .iter()
+        .map(|s| s.trim())
+        .filter(|s| !s.is_empty())
+        .collect();
+    if names.is_empty() {
+        let n = model.joints.len();
+        let mut idx: Vec<usize> = (0..n).collect();
+        match &model.reference {
+            Some(r) => {
+                let moved = |j: usize| -> f64 {
+                    (0..3)
+                        .map(|c| (r[3 * j + c] - model.x0[3 * j + c]).powi(2))
+                        .sum()
+                };
+                idx.sort_by(|&a, &b| moved(b).total_cmp(&moved(a)).then(a.cmp(&b)));
+                idx.truncate(3);
+                idx.sort_unstable();
+            }
+            None => idx = idx.split_off(n.saturating_sub(3)),
+        }
+        return Ok(idx);
+    }
+    names
+        .iter()
+        .map(|name| {
+            model
+                .joints
+                .iter()
+                .position(|j| j.name == *name)
+                .ok_or_else(|| {
+                    let valid: Vec<&str> = model.joints.iter().map(|j| j.name.as_str()).collect();
+                    format!(
+                        "--joints: model {} has no joint named `{name}`; its joints are: {}",
+                        model.name,
+                        valid.join(", ")
+                    )
+                })
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn simultaneous_locks_are_grouped() {
+        let locks = vec![
+            ("a".to_string(), 1.0),
+            ("b".to_string(), 1.0 + 1e-9),
+            ("c".to_string(), 2.0),
+        ];
+        let g = group_locks(&locks, 1e-3);
+        assert_eq!(g.len(), 2);
+        assert_eq!(lock_label(g[0].0, &g[0].1), "2 latches, t = 1.00 s");
+        assert_eq!(lock_label(g[1].0, &g[1].1), "latch c, t = 2.00 s");
+        assert_eq!(tick_label(-0.0001, 0.5), "0.00");
+        assert_eq!(tick_label(0.25, 0.5), "0.25");
+        assert_eq!(tick_label(0.5, 3.0), "0.5");
+    }
+
+    #[test]
+    fn nice_lengths() {
+        assert_eq!(nice_length(0.7), 0.5);
+        assert_eq!(nice_length(3.0), 2.0);
+        assert_eq!(nice_length(1.0), 1.0);
+    }
+
+    #[test]
+    fn unwritable_path_is_an_error_naming_it() {
+        let p = Path::new("/nonexistent-dir/x.svg");
+        let e =
+            histories(p, "t", &[0.0, 1.0], &[("J".into(), vec![[0.0; 3]; 2])], &[]).unwrap_err();
+        assert!(e.contains("/nonexistent-dir/x.svg"), "{e}");
+    }
+}

@@ -1,0 +1,110 @@
+//! `simulate --plot/--joints/--snapshots`: the SVG files are written and name
+//! the joints; an unknown joint is bad input (exit 2) naming it.
+
+use std::path::PathBuf;
+use std::process::Command;
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_truss-deploy"))
+}
+
+fn mast() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("models/pantograph_mast.toml")
+}
+
+fn temp_dir(tag: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("truss-deploy-plots-{tag}-{}", std::process::id()));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+#[test]
+fn plot_and_snapshots_are_svg_with_the_joints() {
+    let dir = temp_dir("ok");
+    let (plot, snaps) = (dir.join("joints.svg"), dir.join("snapshots.svg"));
+    let out = bin()
+        .arg("simulate")
+        .arg(mast())
+        .args(["--joints", "L4,R4", "--plot"])
+        .arg(&plot)
+        .arg("--snapshots")
+        .arg(&snaps)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    for p in [&plot, &snaps] {
+        let text = std::fs::read_to_string(p).unwrap();
+        assert!(
+            text.starts_with("<svg"),
+            "{}: {}",
+            p.display(),
+            &text[..80.min(text.len())]
+        );
+        assert!(
+            text.contains("<path") || text.contains("<polyline"),
+            "{} has no lines",
+            p.display()
+        );
+    }
+    let plot_text = std::fs::read_to_string(&plot).unwrap();
+    for name in ["L4", "R4", "latch event", "t (s)"] {
+        assert!(plot_text.contains(name), "the plot does not mention {name}");
+    }
+    let snaps_text = std::fs::read_to_string(&snaps).unwrap();
+    assert!(
+        snaps_text.contains("t = 0.00 s"),
+        "no first-instant caption"
+    );
+    assert_eq!(snaps_text.matches("t = ").count(), 6, "six instants");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn plot_without_joints_picks_some() {
+    let dir = temp_dir("default");
+    let plot = dir.join("joints.svg");
+    let out = bin()
+        .arg("simulate")
+        .arg(mast())
+        .args(["--until", "1", "--plot"])
+        .arg(&plot)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = std::fs::read_to_string(&plot).unwrap();
+    assert!(
+        text.starts_with("<svg") && text.contains("R4"),
+        "default joints: the ones that move most"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn unknown_joint_is_bad_input_naming_it() {
+    let dir = temp_dir("nope");
+    let plot = dir.join("joints.svg");
+    let out = bin()
+        .arg("simulate")
+        .arg(mast())
+        .args(["--joints", "L1,NOPE", "--plot"])
+        .arg(&plot)
+        .output()
+        .unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("NOPE"), "{err}");
+    assert!(
+        err.contains("L0") && err.contains("R4"),
+        "lists the valid joints: {err}"
+    );
+    assert!(!out.stdout.starts_with(b"model"), "fails before running");
+    let _ = std::fs::remove_dir_all(&dir);
+}
