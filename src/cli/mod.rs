@@ -420,6 +420,13 @@ fn bench(a: BenchArgs) -> Result<(), Failure> {
         out.real_time_factor,
         dt
     );
+    let diag = sim.solver_diagnostics();
+    if !diag.is_empty() {
+        say!(
+            "  solver: {diag}; {:.2} factor() calls per step",
+            out.factorizations_per_step
+        );
+    }
     if let Some(j) = &a.json {
         write_json(j, &out)?;
     }

@@ -83,6 +83,23 @@ pub fn evaluate(
     a: Option<&[f64]>,
     out: &mut CableEval,
 ) {
+    evaluate_with_direction(c, motor_tension_n, x, v, a, None, out)
+}
+
+/// As [`evaluate`], with the friction direction at each pulley taken from the
+/// given sliding speeds (e.g. those at the start of a time step) instead of the
+/// current ones. Inside a step's implicit iteration this keeps the steep friction
+/// switch near zero sliding (width `slip_speed_m_s`) out of the iteration, which
+/// would otherwise oscillate between the two directions.
+pub fn evaluate_with_direction(
+    c: &Cable,
+    motor_tension_n: f64,
+    x: &[f64],
+    v: &[f64],
+    a: Option<&[f64]>,
+    direction_sliding: Option<&[f64]>,
+    out: &mut CableEval,
+) {
     let segs = c.path.len() - 1;
     out.length_m = 0.0;
     for j in 0..segs {
@@ -109,7 +126,8 @@ pub fn evaluate(
             Some(a) if c.line_density_kg_per_m > 0.0 => sliding_accel(c, k, x, v, a),
             _ => 0.0,
         };
-        t = across_pulley(c, t, wrap, out.sliding_m_s[k - 1], s_accel);
+        let sliding = direction_sliding.map_or(out.sliding_m_s[k - 1], |d| d[k - 1]);
+        t = across_pulley(c, t, wrap, sliding, s_accel);
         out.segment_tension_n[k] = t;
     }
 }

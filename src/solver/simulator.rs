@@ -49,6 +49,10 @@ impl Default for Options {
     }
 }
 
+/// Largest model (coordinates) whose mobility the simulator counts by a dense SVD
+/// when the solver does not reveal the rank (at the start and at latches).
+const RANK_CHECK_MAX_COORDS: usize = 1500;
+
 /// Smallest sub-step, as a fraction of the requested step, tried before a
 /// non-converging Newmark iteration is reported.
 const MIN_SUBSTEP: f64 = 1.0 / 1024.0;
@@ -75,6 +79,8 @@ struct Core {
     implicit_h: Option<f64>,
     inv_mass_eff: Vec<f64>,
     v_star: Vec<f64>,
+    /// Per cable, the pulley sliding speeds at the step start (friction direction).
+    friction_sliding: Vec<Vec<f64>>,
 }
 
 impl Core {
@@ -101,6 +107,11 @@ impl Core {
             implicit_h: None,
             inv_mass_eff: model.inv_mass.clone(),
             v_star: vec![0.0; n],
+            friction_sliding: model
+                .cables
+                .iter()
+                .map(|c| vec![0.0; c.path.len().saturating_sub(2)])
+                .collect(),
         }
     }
 
@@ -128,12 +139,16 @@ impl Core {
     fn applied_forces(&mut self, model: &Model, cmd: &[f64]) {
         self.q.fill(0.0);
         for (ci, c) in model.cables.iter().enumerate() {
-            cable::evaluate(
+            let direction = self
+                .implicit_h
+                .map(|_| self.friction_sliding[ci].as_slice());
+            cable::evaluate_with_direction(
                 c,
                 cmd[ci],
                 &self.x,
                 &self.v,
                 Some(&self.a_guess),
+                direction,
                 &mut self.cables[ci],
             );
             cable::add_forces(c, &self.cables[ci], &self.x, &mut self.q);
@@ -248,15 +263,17 @@ impl Core {
         // V_{n+1} = V* + h/2 A_{n+1}, V* = V_n + h/2 A_n, the damping force -C V_{n+1}
         // moves to the left: (M + h/2 C) A_{n+1} = Q - C V* + A^T lambda. The
         // fixed-point iteration then contracts however stiff the damping is.
+        // The friction direction at the pulleys is taken from the step start.
         let c_damp = model.damping_n_s_per_m;
-        if c_damp > 0.0 {
-            for (w, m) in self.inv_mass_eff.iter_mut().zip(&model.mass) {
-                *w = 1.0 / (m + 0.5 * h * c_damp);
-            }
-            self.implicit_h = Some(h);
-            for i in 0..self.v_star.len() {
-                self.v_star[i] = s.v[i] + 0.5 * h * s.a[i];
-            }
+        for (w, m) in self.inv_mass_eff.iter_mut().zip(&model.mass) {
+            *w = 1.0 / (m + 0.5 * h * c_damp);
+        }
+        self.implicit_h = Some(h);
+        for i in 0..self.v_star.len() {
+            self.v_star[i] = s.v[i] + 0.5 * h * s.a[i];
+        }
+        for (dst, src) in self.friction_sliding.iter_mut().zip(&s.cables) {
+            dst.copy_from_slice(&src.sliding_m_s);
         }
         let amax = s.a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         let mut converged = false;
@@ -373,7 +390,7 @@ impl Simulator {
         state.cables.clone_from(&core.cables);
         state.max_violation_m = core.violation_m;
         self.state = state;
-        self.state.mechanisms = self.model.n_coords() - self.rank_now();
+        self.state.mechanisms = self.mechanisms_now();
         self.state.deployed = !self.model.locks.is_empty() && self.all_locked();
         Ok(())
     }
@@ -398,6 +415,10 @@ impl Simulator {
     pub fn factorizations(&self) -> u64 {
         self.core.factorizations
     }
+    /// The solver's counters, for benchmarks.
+    pub fn solver_diagnostics(&self) -> String {
+        self.core.solver.diagnostics()
+    }
 
     /// Sets a cable's motor-end tension from the next step on.
     pub fn set_cable_tension(&mut self, cable: usize, tension_n: f64) -> Result<(), SolverError> {
@@ -418,6 +439,17 @@ impl Simulator {
 
     fn all_locked(&self) -> bool {
         self.model.locks.iter().all(|&e| self.state.locked[e])
+    }
+
+    /// Mechanisms 3n - rank A of the current constraint set. Past
+    /// RANK_CHECK_MAX_COORDS, with a solver that does not reveal the rank, the dense
+    /// SVD would dominate the run: the Maxwell lower bound 3n - rows is reported.
+    fn mechanisms_now(&self) -> usize {
+        let n = self.model.n_coords();
+        if self.core.solver.rank().is_none() && n > RANK_CHECK_MAX_COORDS {
+            return n.saturating_sub(self.core.jac.nrows);
+        }
+        n - self.rank_now()
     }
 
     fn rank_now(&self) -> usize {
@@ -674,8 +706,7 @@ impl Simulator {
         s.max_violation_m = s.max_violation_m.max(core.violation_m);
         let ke_after = s.kinetic_energy_j(model);
         s.energy.lock_loss_j += ke_before - ke_after;
-        let mechanisms = model.n_coords() - self.rank_now();
-        self.state.mechanisms = mechanisms;
+        self.state.mechanisms = self.mechanisms_now();
         if self.all_locked() || self.state.mechanisms == 0 {
             self.state.deployed = true;
             self.state.deploy_time_s.get_or_insert(t);

@@ -1,6 +1,6 @@
 //! Centroid support: fixes some coordinates of the mean position of a group of
 //! joints, Phi_c = (1/N) sum_j X_{j,c} - Xbar0_c for each fixed axis c (linear,
-//! Adot Xdot = 0). With `first_group = K`, the first K joints and the rest form two
+//! Adot Xdot = 0; the row is scaled to a unit gradient). With `first_group = K`, the first K joints and the rest form two
 //! groups whose centres keep their initial offset instead (concentric rings:
 //! Phi_c = mean_A X_c - mean_B X_c - (its initial value)). It holds a structure at its centre, as a symmetric hub does,
 //! without biasing a symmetric deployment: unlike a support at one joint it
@@ -43,6 +43,11 @@ pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, Stri
             ))
         }
     };
+    // Scale the row to a unit gradient (weights w / |w|): the row then reads in
+    // metres times sqrt(N), and a group of hundreds of joints does not make S
+    // ill-conditioned (its diagonal would otherwise be ~1/N of a bar's).
+    let norm = weights.iter().map(|w| w * w).sum::<f64>().sqrt();
+    let weights: Vec<f64> = weights.iter().map(|w| w / norm).collect();
     let fixed = (0..3)
         .filter(|axis| fix.contains(['x', 'y', 'z'][*axis]))
         .map(|axis| {

@@ -41,6 +41,10 @@ pub trait ConstraintSolver: Send {
     );
     /// Rank of A at the last factorization, where the method reveals it.
     fn rank(&self) -> Option<usize>;
+    /// Counters for benchmarks (factorizations, iterations), as one line.
+    fn diagnostics(&self) -> String {
+        String::new()
+    }
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

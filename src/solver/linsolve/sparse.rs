@@ -68,6 +68,27 @@ struct Contrib {
     c0: u32,
 }
 
+/// A numeric LDL^T of S + delta I kept as the preconditioner of later solves.
+/// CG always applies the exact S = A M^-1 A^T of the current configuration, so a
+/// factorization from a nearby configuration only costs a few more iterations;
+/// it is redone when the iterations grow, when it is `MAX_AGE` calls old, or
+/// when the mass matrix changes.
+#[derive(Default)]
+struct Slot {
+    l_vals: Vec<f64>,
+    delta: f64,
+    inv_mass: Vec<f64>,
+    valid: bool,
+    age: usize,
+    /// Most CG iterations a solve needed with this factorization.
+    worst_iterations: usize,
+}
+
+/// A kept factorization is refreshed once a solve needs more CG iterations.
+const REUSE_MAX_ITERATIONS: usize = 6;
+/// ... or after this many factor() calls.
+const MAX_AGE: usize = 64;
+
 #[derive(Default)]
 pub struct SparseSchur {
     // Block structure the pattern was built for.
@@ -82,13 +103,20 @@ pub struct SparseSchur {
     s_vals: Vec<f64>,
     diag_pos: Vec<usize>,
     contrib: Vec<Contrib>,
-    // Factorization.
+    // Factorization: the symbolic analysis, and two numeric factorizations kept
+    // for reuse (one per mass matrix in use: M, and M + h/2 C in damped steps).
     symbolic: Option<SymbolicCholesky<usize>>,
-    l_vals: Vec<f64>,
+    slots: [Slot; 2],
+    active: usize,
     signs: Vec<i8>,
     mem: Option<MemBuffer>,
-    delta: f64,
     factored: bool,
+    /// Numeric factorizations done, and factor() calls served by a kept one.
+    pub numeric_factorizations: u64,
+    pub reused_factorizations: u64,
+    /// Minimum-norm solves and the CG iterations they took.
+    pub solves: u64,
+    pub cg_iterations: u64,
     // Work buffers (rows: m, coordinates: n).
     res: Vec<f64>,
     dl: Vec<f64>,
@@ -240,9 +268,11 @@ impl SparseSchur {
         for b in [&mut self.g, &mut self.dg, &mut self.g_keep] {
             *b = vec![0.0; n];
         }
+        for slot in &mut self.slots {
+            *slot = Slot::default();
+        }
         if m == 0 {
             self.symbolic = None;
-            self.l_vals.clear();
             self.mem = None;
             return Ok(());
         }
@@ -258,9 +288,82 @@ impl SparseSchur {
             symbolic.factorize_numeric_ldlt_scratch::<f64>(Par::Seq, Default::default()),
             symbolic.solve_in_place_scratch::<f64>(1, Par::Seq),
         ]);
-        self.l_vals = vec![0.0; symbolic.len_val()];
+        for slot in &mut self.slots {
+            slot.l_vals = vec![0.0; symbolic.len_val()];
+        }
+        if std::env::var("TRUSS_DEBUG_SPARSE").is_ok() {
+            eprintln!(
+                "sparse: rows {m}, nnz(S upper) {}, nnz(L) {}, contributions {}",
+                self.row_idx.len(),
+                symbolic.len_val(),
+                self.contrib.len()
+            );
+        }
         self.mem = Some(MemBuffer::new(req));
         self.symbolic = Some(symbolic);
+        Ok(())
+    }
+
+    /// Numeric LDL^T of S + delta I at the current Jacobian values into slot k.
+    fn refactor(&mut self, jac: &Jacobian, inv_mass: &[f64], k: usize) -> Result<(), SolverError> {
+        self.factored = false;
+        self.active = k;
+        let v = &jac.values;
+        self.s_vals.fill(0.0);
+        for c in &self.contrib {
+            let (o1, o2, c0) = (c.o1 as usize, c.o2 as usize, c.c0 as usize);
+            self.s_vals[c.s as usize] += v[o1] * v[o2] * inv_mass[c0]
+                + v[o1 + 1] * v[o2 + 1] * inv_mass[c0 + 1]
+                + v[o1 + 2] * v[o2 + 2] * inv_mass[c0 + 2];
+        }
+        if self.s_vals.iter().any(|x| !x.is_finite()) {
+            return Err(SolverError::NonFinite("constraint Jacobian".into()));
+        }
+        let dmax = self
+            .diag_pos
+            .iter()
+            .fold(0.0f64, |a, &p| a.max(self.s_vals[p]));
+        let mut delta = REG_REL * dmax;
+        if delta == 0.0 {
+            delta = f64::MIN_POSITIVE;
+        }
+        for &p in &self.diag_pos {
+            self.s_vals[p] += delta;
+        }
+        let slot = &mut self.slots[k];
+        slot.delta = delta;
+        slot.inv_mass.clear();
+        slot.inv_mass.extend_from_slice(inv_mass);
+        slot.valid = true;
+        slot.age = 0;
+        slot.worst_iterations = 0;
+        self.numeric_factorizations += 1;
+        let (Some(sym), Some(mem)) = (self.symbolic.as_ref(), self.mem.as_mut()) else {
+            self.factored = true;
+            return Ok(()); // no rows
+        };
+        let m = self.sig_rows;
+        let a = SparseColMatRef::new(
+            SymbolicSparseColMatRef::new_checked(m, m, &self.col_ptr, None, &self.row_idx),
+            &self.s_vals,
+        );
+        // Pivots are at least delta in exact arithmetic; guard against roundoff.
+        let reg = LdltRegularization {
+            dynamic_regularization_signs: Some(&self.signs),
+            dynamic_regularization_delta: delta,
+            dynamic_regularization_epsilon: 0.5 * delta,
+        };
+        sym.factorize_numeric_ldlt(
+            &mut self.slots[k].l_vals,
+            a,
+            Side::Upper,
+            reg,
+            Par::Seq,
+            MemStack::new(mem),
+            Default::default(),
+        )
+        .map_err(|e| SolverError::NonFinite(format!("sparse LDLT of S ({e:?})")))?;
+        self.factored = true;
         Ok(())
     }
 
@@ -270,7 +373,7 @@ impl SparseSchur {
             return;
         };
         let m = self.dl.len();
-        LdltRef::new(sym, &self.l_vals).solve_in_place_with_conj(
+        LdltRef::new(sym, &self.slots[self.active].l_vals).solve_in_place_with_conj(
             Conj::No,
             MatMut::from_column_major_slice_mut(&mut self.dl, m, 1),
             Par::Seq,
@@ -284,8 +387,9 @@ impl SparseSchur {
         self.dl.copy_from_slice(&self.res);
         self.ldlt_solve();
         if projected {
+            let delta = self.slots[self.active].delta;
             for (d, r) in self.dl.iter_mut().zip(&self.res) {
-                *d = r - self.delta * *d;
+                *d = r - delta * *d;
             }
             self.ldlt_solve();
         }
@@ -417,8 +521,20 @@ impl SparseSchur {
     /// S^+ rhs: rhs in `self.res`; g and the minimum-norm lambda on return.
     fn solve_min_norm(&mut self, jac: &Jacobian, inv_mass: &[f64]) {
         self.rhs_keep.copy_from_slice(&self.res);
-        let rel_res = self.pcg(jac, inv_mass, true);
+        let mut rel_res = self.pcg(jac, inv_mass, true);
         self.total_iterations = self.last_iterations;
+        self.solves += 1;
+        self.cg_iterations += self.last_iterations as u64;
+        let slot = &mut self.slots[self.active];
+        slot.worst_iterations = slot.worst_iterations.max(self.last_iterations);
+        if rel_res > INCONSISTENT && slot.age > 0 {
+            // A kept factorization may be too far off: refactor here and retry.
+            if self.refactor(jac, inv_mass, self.active).is_ok() {
+                self.res.copy_from_slice(&self.rhs_keep);
+                rel_res = self.pcg(jac, inv_mass, true);
+                self.total_iterations += self.last_iterations;
+            }
+        }
         if rel_res <= INCONSISTENT {
             return;
         }
@@ -450,56 +566,24 @@ impl ConstraintSolver for SparseSchur {
         if !self.same_structure(jac) {
             self.setup(jac)?;
         }
-        self.factored = false;
-        let v = &jac.values;
-        self.s_vals.fill(0.0);
-        for c in &self.contrib {
-            let (o1, o2, c0) = (c.o1 as usize, c.o2 as usize, c.c0 as usize);
-            self.s_vals[c.s as usize] += v[o1] * v[o2] * inv_mass[c0]
-                + v[o1 + 1] * v[o2 + 1] * inv_mass[c0 + 1]
-                + v[o1 + 2] * v[o2 + 2] * inv_mass[c0 + 2];
-        }
-        if self.s_vals.iter().any(|x| !x.is_finite()) {
+        if jac.values.iter().any(|x| !x.is_finite()) {
             return Err(SolverError::NonFinite("constraint Jacobian".into()));
         }
-        let dmax = self
-            .diag_pos
-            .iter()
-            .fold(0.0f64, |a, &p| a.max(self.s_vals[p]));
-        self.delta = REG_REL * dmax;
-        if self.delta == 0.0 {
-            self.delta = f64::MIN_POSITIVE;
+        // Reuse a kept factorization for this mass matrix while it still
+        // preconditions well; otherwise refactor into its slot (or the other one).
+        let matching = (0..2).find(|&k| self.slots[k].valid && self.slots[k].inv_mass == inv_mass);
+        if let Some(k) = matching {
+            let slot = &mut self.slots[k];
+            slot.age += 1;
+            if slot.worst_iterations <= REUSE_MAX_ITERATIONS && slot.age <= MAX_AGE {
+                self.active = k;
+                self.factored = true;
+                self.reused_factorizations += 1;
+                return Ok(());
+            }
         }
-        for &p in &self.diag_pos {
-            self.s_vals[p] += self.delta;
-        }
-        let (Some(sym), Some(mem)) = (self.symbolic.as_ref(), self.mem.as_mut()) else {
-            self.factored = true;
-            return Ok(()); // no rows
-        };
-        let m = self.sig_rows;
-        let a = SparseColMatRef::new(
-            SymbolicSparseColMatRef::new_checked(m, m, &self.col_ptr, None, &self.row_idx),
-            &self.s_vals,
-        );
-        // Pivots are at least delta in exact arithmetic; guard against roundoff.
-        let reg = LdltRegularization {
-            dynamic_regularization_signs: Some(&self.signs),
-            dynamic_regularization_delta: self.delta,
-            dynamic_regularization_epsilon: 0.5 * self.delta,
-        };
-        sym.factorize_numeric_ldlt(
-            &mut self.l_vals,
-            a,
-            Side::Upper,
-            reg,
-            Par::Seq,
-            MemStack::new(mem),
-            Default::default(),
-        )
-        .map_err(|e| SolverError::NonFinite(format!("sparse LDLT of S ({e:?})")))?;
-        self.factored = true;
-        Ok(())
+        let k = matching.unwrap_or(1 - self.active);
+        self.refactor(jac, inv_mass, k)
     }
 
     fn accelerations(
@@ -553,5 +637,15 @@ impl ConstraintSolver for SparseSchur {
 
     fn rank(&self) -> Option<usize> {
         None
+    }
+
+    fn diagnostics(&self) -> String {
+        format!(
+            "{} numeric factorizations ({} reused), {} solves, {:.2} CG iterations per solve",
+            self.numeric_factorizations,
+            self.reused_factorizations,
+            self.solves,
+            self.cg_iterations as f64 / self.solves.max(1) as f64
+        )
     }
 }
