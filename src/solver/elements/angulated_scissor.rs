@@ -86,15 +86,7 @@ pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, Stri
 }
 
 impl Constraint for AngulatedScissor {
-    fn kind(&self) -> &'static str {
-        "angulated_scissor"
-    }
-    fn name(&self) -> &str {
-        &self.name
-    }
-    fn joints(&self) -> &[usize] {
-        &self.joints
-    }
+    super::identity!("angulated_scissor");
     fn rows(&self, _locked: bool) -> usize {
         8
     }

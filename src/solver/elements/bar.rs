@@ -41,15 +41,7 @@ pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, Stri
 }
 
 impl Constraint for Bar {
-    fn kind(&self) -> &'static str {
-        "bar"
-    }
-    fn name(&self) -> &str {
-        &self.name
-    }
-    fn joints(&self) -> &[usize] {
-        &self.joints
-    }
+    super::identity!("bar");
     fn rows(&self, _locked: bool) -> usize {
         1
     }

@@ -70,15 +70,7 @@ pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, Stri
 }
 
 impl Constraint for Centroid {
-    fn kind(&self) -> &'static str {
-        "centroid"
-    }
-    fn name(&self) -> &str {
-        &self.name
-    }
-    fn joints(&self) -> &[usize] {
-        &self.joints
-    }
+    super::identity!("centroid");
     fn rows(&self, _locked: bool) -> usize {
         self.fixed.len()
     }

@@ -49,15 +49,7 @@ pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, Stri
 }
 
 impl Constraint for Coplanar {
-    fn kind(&self) -> &'static str {
-        "coplanar"
-    }
-    fn name(&self) -> &str {
-        &self.name
-    }
-    fn joints(&self) -> &[usize] {
-        &self.joints
-    }
+    super::identity!("coplanar");
     fn rows(&self, _locked: bool) -> usize {
         1
     }

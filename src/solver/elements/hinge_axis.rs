@@ -74,15 +74,7 @@ pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, Stri
 }
 
 impl Constraint for HingeAxis {
-    fn kind(&self) -> &'static str {
-        "hinge_axis"
-    }
-    fn name(&self) -> &str {
-        &self.name
-    }
-    fn joints(&self) -> &[usize] {
-        &self.joints
-    }
+    super::identity!("hinge_axis");
     fn rows(&self, _locked: bool) -> usize {
         1
     }

@@ -128,6 +128,23 @@ pub trait Constraint: Send + Sync + fmt::Debug {
     }
 }
 
+/// The three accessors every element writes alike, for structs with `name` and
+/// `joints` fields.
+macro_rules! identity {
+    ($kind:literal) => {
+        fn kind(&self) -> &'static str {
+            $kind
+        }
+        fn name(&self) -> &str {
+            &self.name
+        }
+        fn joints(&self) -> &[usize] {
+            &self.joints
+        }
+    };
+}
+use identity;
+
 type Builder = fn(&ElementSpec, &[f64]) -> Result<Box<dyn Constraint>, String>;
 
 /// The registry: model-file type name, what it is, and its constructor. The

@@ -38,15 +38,7 @@ pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, Stri
 }
 
 impl Constraint for Perpendicular {
-    fn kind(&self) -> &'static str {
-        "perpendicular"
-    }
-    fn name(&self) -> &str {
-        &self.name
-    }
-    fn joints(&self) -> &[usize] {
-        &self.joints
-    }
+    super::identity!("perpendicular");
     fn rows(&self, _locked: bool) -> usize {
         1
     }

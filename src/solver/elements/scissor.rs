@@ -82,15 +82,7 @@ pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, Stri
 }
 
 impl Constraint for Scissor {
-    fn kind(&self) -> &'static str {
-        "scissor"
-    }
-    fn name(&self) -> &str {
-        &self.name
-    }
-    fn joints(&self) -> &[usize] {
-        &self.joints
-    }
+    super::identity!("scissor");
     fn rows(&self, _locked: bool) -> usize {
         6
     }

@@ -50,15 +50,7 @@ pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, Stri
 }
 
 impl Constraint for Sleeve {
-    fn kind(&self) -> &'static str {
-        "sleeve"
-    }
-    fn name(&self) -> &str {
-        &self.name
-    }
-    fn joints(&self) -> &[usize] {
-        &self.joints
-    }
+    super::identity!("sleeve");
     fn rows(&self, locked: bool) -> usize {
         usize::from(locked)
     }

@@ -35,15 +35,7 @@ pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, Stri
 }
 
 impl Constraint for Support {
-    fn kind(&self) -> &'static str {
-        "support"
-    }
-    fn name(&self) -> &str {
-        &self.name
-    }
-    fn joints(&self) -> &[usize] {
-        &self.joints
-    }
+    super::identity!("support");
     fn rows(&self, _locked: bool) -> usize {
         self.fixed.len()
     }

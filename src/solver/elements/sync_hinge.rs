@@ -57,15 +57,7 @@ pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, Stri
 }
 
 impl Constraint for SyncHinge {
-    fn kind(&self) -> &'static str {
-        "sync_hinge"
-    }
-    fn name(&self) -> &str {
-        &self.name
-    }
-    fn joints(&self) -> &[usize] {
-        &self.joints
-    }
+    super::identity!("sync_hinge");
     fn rows(&self, _locked: bool) -> usize {
         self.axes.len()
     }
