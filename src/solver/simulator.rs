@@ -81,6 +81,10 @@ struct Core {
     v_star: Vec<f64>,
     /// Per cable, the pulley sliding speeds at the step start (friction direction).
     friction_sliding: Vec<Vec<f64>>,
+    /// Accelerations at the start of the last accepted step, and its length (None
+    /// after a latch or a reset: no extrapolation across a velocity jump).
+    a_prev: Vec<f64>,
+    prev_h: Option<f64>,
 }
 
 impl Core {
@@ -112,6 +116,8 @@ impl Core {
                 .iter()
                 .map(|c| vec![0.0; c.path.len().saturating_sub(2)])
                 .collect(),
+            a_prev: vec![0.0; n],
+            prev_h: None,
         }
     }
 
@@ -257,7 +263,15 @@ impl Core {
         opts: &Options,
     ) -> Result<(), SolverError> {
         let cmd = &s.cable_tension_cmd_n;
-        self.a_guess.copy_from_slice(&s.a);
+        // Predictor: A_{n+1} extrapolated linearly from the last two step starts when
+        // the previous step had the same length (saves an iteration), else A_n.
+        if self.prev_h == Some(h) {
+            for i in 0..self.a_guess.len() {
+                self.a_guess[i] = 2.0 * s.a[i] - self.a_prev[i];
+            }
+        } else {
+            self.a_guess.copy_from_slice(&s.a);
+        }
         self.implicit_h = None;
         // Viscous damping C (diagonal) is taken implicitly: with
         // V_{n+1} = V* + h/2 A_{n+1}, V* = V_n + h/2 A_n, the damping force -C V_{n+1}
@@ -368,6 +382,7 @@ impl Simulator {
             state.locked[e] = gap(model, e, &model.x0).abs() <= self.opts.lock_tol_m;
         }
         let core = &mut self.core;
+        core.prev_h = None;
         core.set_pattern(model, &state.locked);
         core.x.copy_from_slice(&model.x0);
         if let Some((e, row, residual_m)) = model.initial_violation(self.opts.initial_tol_m) {
@@ -617,6 +632,8 @@ impl Simulator {
 
     /// Commits the trial step of length h to the state, with the energy ledger.
     fn accept(&mut self, h: f64) {
+        self.core.a_prev.copy_from_slice(&self.state.a);
+        self.core.prev_h = Some(h);
         let (m, s, c) = (&self.model, &mut self.state, &self.core);
         let e = &mut s.energy;
         for (ci, cab) in m.cables.iter().enumerate() {
@@ -671,6 +688,7 @@ impl Simulator {
             self.state.locked[e] = true;
         }
         let core = &mut self.core;
+        core.prev_h = None;
         core.set_pattern(model, &self.state.locked);
         core.x.copy_from_slice(&self.state.x);
         core.v.copy_from_slice(&self.state.v);
