@@ -228,3 +228,28 @@ fn odd_or_out_of_range_sides_are_rejected() {
         assert!(e.contains("--sides"), "{e}");
     }
 }
+
+#[test]
+fn pulley_friction_only_dissipates() {
+    // Friction work must never be negative, step by step, also on a large ring whose
+    // far pulleys barely slide at first (the direction switch is steep there).
+    let model = model_of(&RingParams {
+        sides: 90,
+        ..RingParams::default()
+    });
+    let dt = model.dt_s;
+    let mut sim = Simulator::new(model, Options::default()).unwrap();
+    let mut last = 0.0;
+    for _ in 0..40 {
+        sim.step(dt).unwrap();
+        let f = sim.state().energy.friction_loss_j;
+        assert!(
+            f >= last - 1e-12 * f.abs().max(1e-9),
+            "friction work went from {last} to {f} J"
+        );
+        last = f;
+    }
+    let s = sim.state();
+    let bal = s.energy.balance_rel_error(s.kinetic_energy_j(sim.model()));
+    assert!(bal < 1e-5, "energy balance {bal:e} after 2 s");
+}

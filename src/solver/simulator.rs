@@ -79,8 +79,10 @@ struct Core {
     implicit_h: Option<f64>,
     inv_mass_eff: Vec<f64>,
     v_star: Vec<f64>,
-    /// Per cable, the pulley sliding speeds at the step start (friction direction).
+    /// Per cable, the pulley sliding speeds at the step start, and whether the
+    /// current iteration takes the friction direction from them.
     friction_sliding: Vec<Vec<f64>>,
+    lagged_friction: bool,
     /// Accelerations at the start of the last accepted step, and its length (None
     /// after a latch or a reset: no extrapolation across a velocity jump).
     a_prev: Vec<f64>,
@@ -116,6 +118,7 @@ impl Core {
                 .iter()
                 .map(|c| vec![0.0; c.path.len().saturating_sub(2)])
                 .collect(),
+            lagged_friction: false,
             a_prev: vec![0.0; n],
             prev_h: None,
         }
@@ -145,9 +148,11 @@ impl Core {
     fn applied_forces(&mut self, model: &Model, cmd: &[f64]) {
         self.q.fill(0.0);
         for (ci, c) in model.cables.iter().enumerate() {
-            let direction = self
-                .implicit_h
-                .map(|_| self.friction_sliding[ci].as_slice());
+            let direction = if self.lagged_friction {
+                Some(self.friction_sliding[ci].as_slice())
+            } else {
+                None
+            };
             cable::evaluate_with_direction(
                 c,
                 cmd[ci],
@@ -277,7 +282,6 @@ impl Core {
         // V_{n+1} = V* + h/2 A_{n+1}, V* = V_n + h/2 A_n, the damping force -C V_{n+1}
         // moves to the left: (M + h/2 C) A_{n+1} = Q - C V* + A^T lambda. The
         // fixed-point iteration then contracts however stiff the damping is.
-        // The friction direction at the pulleys is taken from the step start.
         let c_damp = model.damping_n_s_per_m;
         for (w, m) in self.inv_mass_eff.iter_mut().zip(&model.mass) {
             *w = 1.0 / (m + 0.5 * h * c_damp);
@@ -291,6 +295,12 @@ impl Core {
         }
         let amax = s.a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         let mut converged = false;
+        // The friction direction follows the current iterate. Near zero sliding
+        // the steep blend of the direction can make the iteration cycle between
+        // two iterates; once the change stops shrinking for a few iterations the
+        // step restarts with the direction taken from the step start.
+        self.lagged_friction = false;
+        let (mut last_change, mut stalls) = (f64::INFINITY, 0);
         for _ in 0..opts.max_newmark_iters {
             for i in 0..self.x.len() {
                 let asum = s.a[i] + self.a_guess[i];
@@ -312,8 +322,20 @@ impl Core {
                 converged = true;
                 break;
             }
+            stalls = if change >= 0.9 * last_change {
+                stalls + 1
+            } else {
+                0
+            };
+            last_change = change;
+            if stalls >= 4 && !self.lagged_friction && !model.cables.is_empty() {
+                self.lagged_friction = true;
+                self.a_guess.copy_from_slice(&s.a);
+                (last_change, stalls) = (f64::INFINITY, 0);
+            }
         }
         self.implicit_h = None;
+        self.lagged_friction = false;
         if !converged {
             return Err(SolverError::NoConvergence { t_s: s.t_s + h });
         }

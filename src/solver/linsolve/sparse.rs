@@ -291,14 +291,6 @@ impl SparseSchur {
         for slot in &mut self.slots {
             slot.l_vals = vec![0.0; symbolic.len_val()];
         }
-        if std::env::var("TRUSS_DEBUG_SPARSE").is_ok() {
-            eprintln!(
-                "sparse: rows {m}, nnz(S upper) {}, nnz(L) {}, contributions {}",
-                self.row_idx.len(),
-                symbolic.len_val(),
-                self.contrib.len()
-            );
-        }
         self.mem = Some(MemBuffer::new(req));
         self.symbolic = Some(symbolic);
         Ok(())
