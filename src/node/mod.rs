@@ -1,6 +1,6 @@
 //! The ROS 2 node (feature `ros`): steps the [`Simulator`] in real time and
 //! publishes over DDS with ros2-client on a tokio current_thread runtime.
-//! Topics, types and QoS follow docs/DESIGN.md "ROS 2 interface"; see
+//! Topics, types and QoS follow ../shared/DESIGN.md "ROS 2 interface"; see
 //! launch_notes.md for running it next to a ROS 2 installation.
 
 pub mod commands;
