@@ -86,9 +86,9 @@ pub fn evaluate(
     evaluate_with_direction(c, motor_tension_n, x, v, a, None, out)
 }
 
-/// As [`evaluate`], with the friction direction at each pulley taken from the
-/// given sliding speeds (e.g. those at the start of a time step) instead of the
-/// current ones. Inside a step's implicit iteration this keeps the steep friction
+/// As [`evaluate`], with the friction direction at each pulley where the cable
+/// slides slower than `slip_speed_m_s` taken from the given sliding speeds (e.g.
+/// those at the start of a time step) instead of the current ones. Inside a step's implicit iteration this keeps the steep friction
 /// switch near zero sliding (width `slip_speed_m_s`) out of the iteration, which
 /// would otherwise oscillate between the two directions.
 pub fn evaluate_with_direction(
@@ -126,7 +126,13 @@ pub fn evaluate_with_direction(
             Some(a) if c.line_density_kg_per_m > 0.0 => sliding_accel(c, k, x, v, a),
             _ => 0.0,
         };
-        let sliding = direction_sliding.map_or(out.sliding_m_s[k - 1], |d| d[k - 1]);
+        // Outside the blend zone the direction is the current one (so friction always
+        // dissipates); inside it, the given one.
+        let current = out.sliding_m_s[k - 1];
+        let sliding = match direction_sliding {
+            Some(d) if current.abs() < c.slip_speed_m_s => d[k - 1],
+            _ => current,
+        };
         t = across_pulley(c, t, wrap, sliding, s_accel);
         out.segment_tension_n[k] = t;
     }
