@@ -1108,3 +1108,47 @@ fn cable_forces_satisfy_the_virtual_work_identity() {
         }
     }
 }
+
+/// A direction hint (the step-start sliding the simulator passes when its iteration
+/// stalls) may only matter where the cable barely slides: elsewhere friction must
+/// oppose the actual sliding, or it would do positive work.
+#[test]
+fn direction_hint_never_overrides_real_sliding() {
+    let beta = 0.6;
+    let x = vee_geometry(beta);
+    let (mu, slip, t) = (0.3, 1e-3, 30.0);
+    let c = test_cable(vec![0, 1, 2], mu, 0.0, 0.05, slip);
+    let a = pos(&x, 2);
+    let la = norm3(a);
+    let wrap = PI - 2.0 * beta;
+    for (speed, hint) in [
+        (0.2, -0.2),
+        (-0.2, 0.2),
+        (5.0 * slip, -1.0),
+        (0.25 * slip, -1.0),
+    ] {
+        // anchor moving toward the pulley at `speed`: the cable slides toward the motor
+        let mut v = vec![0.0; 9];
+        for k in 0..3 {
+            v[6 + k] = -speed * a[k] / la;
+        }
+        let mut ev = CableEval::for_cable(&c);
+        cable::evaluate_with_direction(&c, t, &x, &v, None, Some(&[hint]), &mut ev);
+        let ratio = ev.segment_tension_n[1] / t;
+        if speed.abs() >= slip {
+            let expect = (-mu * wrap * speed.signum()).exp();
+            assert!(
+                rel_close(ratio, expect, CABLE_TOL),
+                "speed {speed}, hint {hint}: ratio {ratio} vs {expect}"
+            );
+            // friction power (T0 - T1) * s >= 0
+            assert!((t - ev.segment_tension_n[1]) * ev.sliding_m_s[0] >= 0.0);
+        } else {
+            // inside the blend zone the hint decides the direction
+            assert!(
+                rel_close(ratio, (mu * wrap).exp(), CABLE_TOL),
+                "blend zone follows the hint: {ratio}"
+            );
+        }
+    }
+}
