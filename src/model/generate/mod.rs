@@ -39,6 +39,21 @@ impl Default for MastParams {
     }
 }
 
+/// Checks a generator's drive and dissipation options (also NaN: every test fails).
+pub(crate) fn check_drive(
+    tension_n: f64,
+    max_tension_n: f64,
+    mu: f64,
+    damping: f64,
+) -> Result<(), String> {
+    if !(tension_n >= 0.0 && tension_n <= max_tension_n && mu >= 0.0 && damping >= 0.0) {
+        return Err(format!(
+            "drive tension {tension_n} N must be within 0..{max_tension_n} N, friction {mu} and damping {damping} N s/m must be >= 0"
+        ));
+    }
+    Ok(())
+}
+
 pub fn mast_joint_names(units: usize) -> Vec<String> {
     (0..=units)
         .flat_map(|u| [format!("L{u}"), format!("R{u}")])
@@ -97,15 +112,12 @@ pub fn mast(p: &MastParams) -> Result<ModelDoc, String> {
             p.start_deg, p.deploy_deg
         ));
     }
-    if !(p.tension_n >= 0.0
-        && p.tension_n <= p.max_tension_n
-        && p.friction_mu >= 0.0
-        && p.damping_n_s_per_m >= 0.0)
-    {
-        return Err(
-            "tension must be within 0..max tension; friction and damping must be >= 0".into(),
-        );
-    }
+    check_drive(
+        p.tension_n,
+        p.max_tension_n,
+        p.friction_mu,
+        p.damping_n_s_per_m,
+    )?;
     let (phi0, phid) = (p.start_deg.to_radians(), p.deploy_deg.to_radians());
     let names = mast_joint_names(p.units);
     let x0 = mast_positions(p.units, p.rod_length_m, phi0);

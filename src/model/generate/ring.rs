@@ -156,15 +156,12 @@ pub fn ring(p: &RingParams) -> Result<ModelDoc, String> {
                 .into(),
         );
     }
-    if !(p.tension_n >= 0.0
-        && p.tension_n <= p.max_tension_n
-        && p.friction_mu >= 0.0
-        && p.damping_n_s_per_m >= 0.0)
-    {
-        return Err(
-            "tension must be within 0..max tension; friction and damping must be >= 0".into(),
-        );
-    }
+    super::check_drive(
+        p.tension_n,
+        p.max_tension_n,
+        p.friction_mu,
+        p.damping_n_s_per_m,
+    )?;
     let a0 = 0.5 * p.outer_chord_m * p.start_deg.to_radians().sin();
     let x0 = ring_positions(p, a0)?;
     let xd = ring_positions(p, 0.0)?;
