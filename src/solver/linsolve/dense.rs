@@ -18,8 +18,8 @@ use crate::solver::jacobian::Jacobian;
 use crate::solver::SolverError;
 use nalgebra::{DMatrix, DVector};
 
-/// Relative singular-value threshold of the rank decision.
-pub const RANK_TOL: f64 = 1e-9;
+/// The rank decision is the one `analyze` makes, so both count alike.
+use crate::solver::mobility::RANK_TOL;
 
 #[derive(Default)]
 pub struct DenseNullSpace {
