@@ -198,17 +198,62 @@ fn compare_single(model: &Model, x: &[f64], locked: &[bool], seed: u64) {
 
     let mut dense = SolverKind::Dense.make();
     let mut sparse = SolverKind::Sparse.make();
+    // Basic solves (the stepping loop): any exact multipliers; the motion, and
+    // the joint forces A^T lambda, are the dense ones. A right-hand side far
+    // from consistent falls back to the least-squares answer.
+    let c_far: Vec<f64> = c.iter().map(|v| v + 1e-2 * rng.next()).collect();
+    for _ in 0..2 {
+        dense.factor(&jac, &model.inv_mass).unwrap();
+        sparse.factor(&jac, &model.inv_mass).unwrap();
+    }
+    let forces = |l: &[f64]| {
+        let mut f = vec![0.0; n];
+        jac.mul_t(l, &mut f);
+        f
+    };
+    for (label, cc) in [
+        ("basic, consistent c", &c),
+        ("basic, far inconsistent c", &c_far),
+    ] {
+        let (mut ad, mut ld) = (vec![0.0; n], vec![0.0; m]);
+        let (mut as_, mut ls) = (vec![0.0; n], vec![0.0; m]);
+        dense.accelerations(&jac, &model.inv_mass, &q, cc, &mut ad, &mut ld);
+        sparse.accelerations(&jac, &model.inv_mass, &q, cc, &mut as_, &mut ls);
+        let ea = max_diff(&ad, &as_) / max_abs(&ad);
+        let ef = max_diff(&forces(&ld), &forces(&ls)) / max_abs(&forces(&ld));
+        eprintln!("{label}: rel. diff accelerations {ea:.1e}, joint forces {ef:.1e}");
+        assert!(
+            ea <= 1e-9,
+            "{label}: accelerations differ by {ea:e} (relative)"
+        );
+        assert!(
+            ef <= 1e-9,
+            "{label}: joint forces differ by {ef:e} (relative)"
+        );
+    }
+    {
+        let (mut dd, mut md) = (vec![0.0; n], vec![0.0; m]);
+        let (mut ds, mut ms) = (vec![0.0; n], vec![0.0; m]);
+        let mut av = vec![0.0; m];
+        jac.mul(&w, &mut av);
+        dense.correction(&jac, &model.inv_mass, &av, &mut dd, &mut md);
+        sparse.correction(&jac, &model.inv_mass, &av, &mut ds, &mut ms);
+        let ex = max_diff(&dd, &ds) / max_abs(&dd);
+        eprintln!("basic, consistent r: rel. diff dx {ex:.1e}");
+        assert!(
+            ex <= 1e-9,
+            "basic correction dx differs by {ex:e} (relative)"
+        );
+    }
+
+    // Minimum-norm solves (latch impulses): the multipliers themselves agree.
+    sparse.set_min_norm(true);
     // factor twice: the second factor() reuses the symbolic analysis
     for _ in 0..2 {
         dense.factor(&jac, &model.inv_mass).unwrap();
         sparse.factor(&jac, &model.inv_mass).unwrap();
     }
     assert_eq!(sparse.name(), "sparse");
-    let forces = |l: &[f64]| {
-        let mut f = vec![0.0; n];
-        jac.mul_t(l, &mut f);
-        f
-    };
     for (label, cc, tol) in [("consistent c", &c, 1e-9), ("inconsistent c", &c_bad, 1e-9)] {
         let (mut ad, mut ld) = (vec![0.0; n], vec![0.0; m]);
         let (mut as_, mut ls) = (vec![0.0; n], vec![0.0; m]);

@@ -214,33 +214,57 @@ impl Core {
         factored: bool,
     ) -> Result<(), SolverError> {
         let mut factored = factored;
-        for _ in 0..25 {
-            self.jac.residual(model, &self.x, &mut self.r);
-            self.violation_m = self.r.iter().fold(0.0, |m, v| m.max(v.abs()));
-            if self.violation_m <= tol {
-                return Ok(());
+        // Newton with basic solves converges on the kept rows; where the dropped
+        // ones are only nearly redundant (e.g. every sleeve just latched at the
+        // flat deployed state) their residual stalls, and the least-squares
+        // (minimum-norm) iteration takes over.
+        let (mut min_norm, mut last) = (false, f64::INFINITY);
+        let result = (|| {
+            for _ in 0..25 {
+                self.jac.residual(model, &self.x, &mut self.r);
+                self.violation_m = self.r.iter().fold(0.0, |m, v| m.max(v.abs()));
+                if self.violation_m <= tol {
+                    return Ok(());
+                }
+                if !min_norm && self.violation_m > 0.25 * last && self.solver.set_min_norm(true) {
+                    min_norm = true;
+                    factored = false;
+                    if self.violation_m > last {
+                        // the last basic correction made things worse: undo it
+                        for (x, d) in self.x.iter_mut().zip(&self.dx) {
+                            *x += d;
+                        }
+                        self.jac.residual(model, &self.x, &mut self.r);
+                        self.violation_m = self.r.iter().fold(0.0, |m, v| m.max(v.abs()));
+                    }
+                }
+                last = self.violation_m;
+                if !factored {
+                    self.factor(model)?;
+                }
+                factored = false;
+                self.solver.correction(
+                    &self.jac,
+                    &model.inv_mass,
+                    &self.r,
+                    &mut self.dx,
+                    &mut self.mu,
+                );
+                for (x, d) in self.x.iter_mut().zip(&self.dx) {
+                    *x -= d;
+                }
             }
-            if !factored {
-                self.factor(model)?;
+            if self.violation_m <= 1e3 * tol {
+                return Ok(()); // converged to roundoff of a large structure
             }
-            factored = false;
-            self.solver.correction(
-                &self.jac,
-                &model.inv_mass,
-                &self.r,
-                &mut self.dx,
-                &mut self.mu,
-            );
-            for (x, d) in self.x.iter_mut().zip(&self.dx) {
-                *x -= d;
-            }
+            Err(SolverError::Projection {
+                violation_m: self.violation_m,
+            })
+        })();
+        if min_norm {
+            self.solver.set_min_norm(false);
         }
-        if self.violation_m <= 1e3 * tol {
-            return Ok(()); // converged to roundoff of a large structure
-        }
-        Err(SolverError::Projection {
-            violation_m: self.violation_m,
-        })
+        result
     }
 
     /// V <- V - M^-1 A^T S^+ A V (needs a current factorization at x). Returns the
@@ -300,6 +324,7 @@ impl Core {
         // two iterates; once the change stops shrinking for a few iterations the
         // step restarts with the direction taken from the step start.
         self.lagged_friction = false;
+        let mut min_norm = false;
         let (mut last_change, mut stalls) = (f64::INFINITY, 0);
         for _ in 0..opts.max_newmark_iters {
             for i in 0..self.x.len() {
@@ -309,6 +334,9 @@ impl Core {
             }
             if let Err(e) = self.accelerations(model, cmd, true) {
                 self.implicit_h = None;
+                if min_norm {
+                    self.solver.set_min_norm(false);
+                }
                 return Err(e);
             }
             let mut change = 0.0f64;
@@ -328,11 +356,21 @@ impl Core {
                 0
             };
             last_change = change;
-            if stalls >= 4 && !self.lagged_friction && !model.cables.is_empty() {
+            if stalls >= 4 && !min_norm && self.solver.set_min_norm(true) {
+                // Basic solves (redundant rows dropped) make a less contractive
+                // map than least-squares ones where the iterates leave the
+                // manifold; retry the step with the latter first.
+                min_norm = true;
+                self.a_guess.copy_from_slice(&s.a);
+                (last_change, stalls) = (f64::INFINITY, 0);
+            } else if stalls >= 4 && !self.lagged_friction && !model.cables.is_empty() {
                 self.lagged_friction = true;
                 self.a_guess.copy_from_slice(&s.a);
                 (last_change, stalls) = (f64::INFINITY, 0);
             }
+        }
+        if min_norm {
+            self.solver.set_min_norm(false);
         }
         self.implicit_h = None;
         self.lagged_friction = false;
@@ -714,10 +752,22 @@ impl Simulator {
         core.set_pattern(model, &self.state.locked);
         core.x.copy_from_slice(&self.state.x);
         core.v.copy_from_slice(&self.state.v);
-        core.project_positions(model, self.opts.projection_tol_m, false)?;
-        core.factor(model)?;
+        // Least-squares (minimum-norm) solves through the latch: simultaneous
+        // latches of redundant members share the impulse by the minimum-norm
+        // split (statically indeterminate otherwise), and a truss that latches
+        // into its flat deployed state has rows only nearly redundant there,
+        // on which basic solves are ill-conditioned.
+        let _ = core.solver.set_min_norm(true);
+        let settled = (|| {
+            core.project_positions(model, self.opts.projection_tol_m, false)?;
+            core.factor(model)?;
+            core.project_velocities(model); // r = A v before, mu = impulses
+            core.a_guess.copy_from_slice(&self.state.a);
+            core.accelerations(model, &self.state.cable_tension_cmd_n, false)
+        })();
+        let _ = core.solver.set_min_norm(false);
+        settled?;
         let ke_before = self.state.kinetic_energy_j(model);
-        core.project_velocities(model); // r = A v before, mu = impulses
         let t = self.state.t_s;
         for &e in &newly {
             let b = core
@@ -736,8 +786,6 @@ impl Simulator {
                 closing_speed_m_s: rate,
             });
         }
-        core.a_guess.copy_from_slice(&self.state.a);
-        core.accelerations(model, &self.state.cable_tension_cmd_n, false)?;
         let s = &mut self.state;
         s.x.copy_from_slice(&core.x);
         s.v.copy_from_slice(&core.v);

@@ -39,6 +39,16 @@ pub trait ConstraintSolver: Send {
         dx: &mut [f64],
         mu: &mut [f64],
     );
+    /// Whether later solves must return the least-squares, minimum-norm
+    /// multipliers S^+ r (latch impulses shared among redundant rows) or may
+    /// return any exact set (faster where the backend distinguishes them).
+    /// For a consistent right-hand side the motion is the same; off the
+    /// constraint manifold (Newmark iterates), where redundant rows are only
+    /// nearly dependent, the two differ at first order in the residual.
+    /// Returns whether this backend distinguishes them at all.
+    fn set_min_norm(&mut self, _on: bool) -> bool {
+        false
+    }
     /// Rank of A at the last factorization, where the method reveals it.
     fn rank(&self) -> Option<usize>;
     /// Counters for benchmarks (factorizations, iterations), as one line.

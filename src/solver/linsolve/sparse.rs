@@ -10,27 +10,47 @@
 //! redone then. Every factor() only refills the values and runs the numeric
 //! LDL^T; no solve allocates (all work buffers and faer's scratch are kept).
 //!
-//! Redundant rows. States of self-stress make S singular. With
-//! delta = `REG_REL` * max diag(S) the regularized matrix R = S + delta I is
-//! positive definite and its LDL^T is used as the preconditioner of conjugate
-//! gradients on S lambda = r, with S applied exactly as A M^-1 A^T. The
-//! preconditioner is P = R^-1 S R^-1 (two triangular-solve pairs): it is zero
-//! on null(S), so the iterates stay in range(S) and converge to the
-//! minimum-norm multipliers S^+ r, and the preconditioned spectrum
-//! (s / (s + delta))^2 is 1 to ~1e-8 except for the few directions with s near
-//! delta (long flat masts), which CG resolves in a few more steps. Typically 2-3
-//! steps; convergence is measured on g = M^-1 A^T lambda (the motion).
-//! A right-hand side with a component along null(S) (inconsistent; not produced
-//! by the simulator, whose right-hand sides are consistent to roundoff) makes
-//! CG stall on roundoff; that is detected by the true residual, and g is then
-//! computed by the projected Richardson iteration (no data-dependent step
-//! length) and lambda = S^+ (A g) by CG again: the least-squares answer of the
-//! dense SVD.
+//! Redundant rows. States of self-stress make S singular. Two factorizations
+//! of S serve two kinds of solve:
+//!
+//! - Basic (the stepping loop). The Jacobi-scaled S~ = D^-1/2 S D^-1/2 (unit
+//!   diagonal) is factored with pivot rejection: a pivot below `REJECT_TOL` is
+//!   the squared sine of the angle between a row and the span of the rows
+//!   before it, i.e. the row is redundant, and its pivot is replaced by
+//!   `REJECT_DELTA`, which removes the row (its multiplier comes out 0, its
+//!   coupling to later rows vanishes). The kept rows span the row space of A,
+//!   so the factorization is an exact solver of the consistent reduced system:
+//!   the motion g = M^-1 A^T lambda is exact, lambda is one of the many
+//!   multiplier sets that produce it (the redundant rows chosen by the
+//!   elimination order carry none). Once factored, it preconditions conjugate
+//!   gradients on the kept rows with S applied exactly, for as long as the
+//!   configuration stays near (a stale factorization costs an iteration or
+//!   two). The full residual (all rows) is checked after every solve; a rank
+//!   change (a rejected row no longer redundant) shows there and refactors.
+//! - Minimum-norm (`set_min_norm(true)`: latch impulses, and every solve whose
+//!   right-hand side turns out inconsistent). With
+//!   delta = `REG_REL` * max diag(S) the regularized matrix R = S + delta I is
+//!   positive definite and its LDL^T is used as the preconditioner of conjugate
+//!   gradients on S lambda = r, with S applied exactly as A M^-1 A^T. The
+//!   preconditioner is P = R^-1 S R^-1 (two triangular-solve pairs): it is zero
+//!   on null(S), so the iterates stay in range(S) and converge to the
+//!   minimum-norm multipliers S^+ r (the dense SVD's), and the preconditioned
+//!   spectrum (s / (s + delta))^2 is 1 to ~1e-8 except for the few directions
+//!   with s near delta (long flat masts), which CG resolves in a few more steps.
+//!   A right-hand side with a component along null(S) (inconsistent; not
+//!   produced by the simulator, whose right-hand sides are consistent to
+//!   roundoff) makes CG stall on roundoff; that is detected by the true
+//!   residual, and g is then computed by the projected Richardson iteration (no
+//!   data-dependent step length) and lambda = S^+ (A g) by CG again: the
+//!   least-squares answer of the dense SVD.
+//!
+//! Convergence is measured on g = M^-1 A^T lambda (the motion).
 //!
 //! Accuracy: g (accelerations, corrections, A^T lambda) to roundoff of the
-//! dense result; the split of lambda among redundant rows (states of
-//! self-stress) to about eps / REG_REL ~ 1e-7 relative, the roundoff of a solve
-//! with R along null(S). `rank()` is not revealed (None).
+//! dense result; in minimum-norm solves the split of lambda among redundant
+//! rows to about eps / REG_REL ~ 1e-7 relative, the roundoff of a solve with R
+//! along null(S). `rank()` is the number of kept rows of the last basic
+//! factorization.
 
 use super::ConstraintSolver;
 use crate::solver::jacobian::Jacobian;
@@ -38,13 +58,22 @@ use crate::solver::SolverError;
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::linalg::cholesky::ldlt::factor::LdltRegularization;
 use faer::sparse::linalg::cholesky::{
-    factorize_symbolic_cholesky, LdltRef, SymbolicCholesky, SymmetricOrdering,
+    factorize_symbolic_cholesky, CholeskySymbolicParams, LdltRef, SymbolicCholesky,
+    SymbolicCholeskyRaw, SymmetricOrdering,
 };
+use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
 use faer::{Conj, MatMut, Par, Side};
 
-/// Regularization relative to the largest diagonal entry of S.
+/// Regularization relative to the largest diagonal entry of S (minimum-norm solves).
 pub const REG_REL: f64 = 1e-10;
+/// A pivot of the unit-diagonal S~ below this marks a redundant row: the row's
+/// component outside the span of the rows before it is below 1e-5 of its
+/// length. Roundoff leaves ~1e-14 on truly redundant rows.
+pub const REJECT_TOL: f64 = 1e-10;
+/// The pivot given to a rejected row: its multiplier and couplings become
+/// ~1 / REJECT_DELTA of the others'.
+const REJECT_DELTA: f64 = 1e24;
 /// Refinement stops when the (estimated) error of g is below this, relative to g.
 const REFINE_TOL: f64 = 1e-15;
 /// Updates that no longer shrink and are below this (relative to g) are roundoff.
@@ -58,6 +87,9 @@ const JUMP_MAX: f64 = 100.0;
 /// A final relative residual above this marks a right-hand side with a
 /// component along null(S) (roundoff alone leaves ~1e-15).
 const INCONSISTENT: f64 = 1e-11;
+/// The same for basic solves, whose rejected rows only follow from the kept
+/// ones to the rhs's own (second-order) inconsistency.
+const BASIC_INCONSISTENT: f64 = 1e-6;
 
 /// One product of an entry of S: S[s] += sum_k A[o1 + k] A[o2 + k] / m[c0 + k].
 #[derive(Clone, Copy, Debug)]
@@ -68,15 +100,30 @@ struct Contrib {
     c0: u32,
 }
 
-/// A numeric LDL^T of S + delta I kept as the preconditioner of later solves.
+/// Which factorization a slot holds.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+enum SlotKind {
+    /// LDL^T of the Jacobi-scaled S with redundant rows rejected (basic solves).
+    #[default]
+    Rejecting,
+    /// LDL^T of S + delta I (minimum-norm solves).
+    Regularized,
+}
+
+/// A numeric factorization kept as the preconditioner of later solves.
 /// CG always applies the exact S = A M^-1 A^T of the current configuration, so a
 /// factorization from a nearby configuration only costs a few more iterations;
 /// it is redone when the iterations grow, when it is `MAX_AGE` calls old, or
 /// when the mass matrix changes.
 #[derive(Default)]
 struct Slot {
+    kind: SlotKind,
     l_vals: Vec<f64>,
     delta: f64,
+    /// D^-1/2 (1 / sqrt(S_ii), 0 for an empty row) for a Rejecting slot.
+    scale: Vec<f64>,
+    /// Rows rejected as redundant (Rejecting slot).
+    rejected: usize,
     inv_mass: Vec<f64>,
     valid: bool,
     age: usize,
@@ -84,10 +131,19 @@ struct Slot {
     worst_iterations: usize,
 }
 
+/// Slots 0 and 1 hold basic factorizations, this one the minimum-norm one.
+const REGULARIZED_SLOT: usize = 2;
+
 /// A kept factorization is refreshed once a solve needs more CG iterations.
 const REUSE_MAX_ITERATIONS: usize = 6;
 /// ... or after this many factor() calls.
 const MAX_AGE: usize = 64;
+/// Basic factorizations are not reused across factor() calls: the kept rows
+/// are a basis of the row space less well conditioned than all of them, and a
+/// factorization one call old took 4-19 CG iterations instead of 2 on the
+/// 18-sided ring (and did not converge near its deployed state), while a
+/// fresh one of the reduced system costs about as much as 6 of them.
+const BASIC_MAX_AGE: usize = 0;
 
 #[derive(Default)]
 pub struct SparseSchur {
@@ -97,19 +153,25 @@ pub struct SparseSchur {
     sig_blocks: Vec<(usize, usize, usize, usize)>,
     sig_joints: Vec<usize>,
     ready: bool,
-    // Upper triangle of S (CSC, sorted rows), and the index map.
-    col_ptr: Vec<usize>,
-    row_idx: Vec<usize>,
-    s_vals: Vec<f64>,
-    diag_pos: Vec<usize>,
-    contrib: Vec<Contrib>,
-    // Factorization: the symbolic analysis, and two numeric factorizations kept
-    // for reuse (one per mass matrix in use: M, and M + h/2 C in damped steps).
-    symbolic: Option<SymbolicCholesky<usize>>,
-    slots: [Slot; 2],
+    /// S over every row (minimum-norm solves, and the probe that finds the
+    /// redundant rows), and over the kept rows only (basic solves; built once
+    /// per locked set, from the probe).
+    full: Pattern,
+    reduced: Option<Pattern>,
+    /// Scratch for the probe's factorization (len of the full L).
+    probe_l: Vec<f64>,
+    /// Gather buffer on the kept rows.
+    xr: Vec<f64>,
+    // Numeric factorizations kept for reuse: two basic ones (one per mass
+    // matrix in use: M, and M + h/2 C in damped steps) on the kept rows, and one
+    // minimum-norm one on every row.
+    slots: [Slot; 3],
     active: usize,
-    signs: Vec<i8>,
-    mem: Option<MemBuffer>,
+    /// Solves return the minimum-norm multipliers (else a basic set).
+    min_norm: bool,
+    /// Rank of A found by the last basic factorization made fresh at the
+    /// configuration of a factor() call.
+    rank: Option<usize>,
     factored: bool,
     /// Numeric factorizations done, and factor() calls served by a kept one.
     pub numeric_factorizations: u64,
@@ -177,83 +239,10 @@ impl SparseSchur {
         self.ready = true;
         self.factored = false;
 
-        // Incidences (block, local joint) of every joint.
-        let njoints = n / 3;
-        let mut inc: Vec<Vec<(usize, usize)>> = vec![Vec::new(); njoints];
-        for (bi, b) in jac.blocks.iter().enumerate() {
-            for (jj, &c0) in b.cols.iter().enumerate() {
-                inc[c0 / 3].push((bi, jj));
-            }
-        }
-        // Pattern: upper triangle, per column j the rows i <= j.
-        let mut cols: Vec<Vec<usize>> = vec![Vec::new(); m];
-        for i in 0..m {
-            cols[i].push(i);
-        }
-        for list in &inc {
-            for &(b1, _) in list {
-                for &(b2, _) in list {
-                    let (p, q) = (&jac.blocks[b1], &jac.blocks[b2]);
-                    for i in p.row0..p.row0 + p.rows {
-                        for j in q.row0..q.row0 + q.rows {
-                            if i <= j {
-                                cols[j].push(i);
-                            }
-                        }
-                    }
-                }
-            }
-        }
-        self.col_ptr.clear();
-        self.row_idx.clear();
-        self.col_ptr.push(0);
-        for c in &mut cols {
-            c.sort_unstable();
-            c.dedup();
-            self.row_idx.extend_from_slice(c);
-            self.col_ptr.push(self.row_idx.len());
-        }
-        let nnz = self.row_idx.len();
-        if nnz > u32::MAX as usize || jac.values.len() > u32::MAX as usize {
-            return Err(SolverError::Invalid(
-                "constraint system too large for the sparse solver".into(),
-            ));
-        }
-        let pos = |i: usize, j: usize| -> usize {
-            let lo = self.col_ptr[j];
-            lo + self.row_idx[lo..self.col_ptr[j + 1]]
-                .binary_search(&i)
-                .expect("entry in pattern")
-        };
-        self.diag_pos = (0..m).map(|i| pos(i, i)).collect();
-        let mut contrib = Vec::new();
-        for (joint, list) in inc.iter().enumerate() {
-            for &(b1, jj1) in list {
-                for &(b2, jj2) in list {
-                    let (p, q) = (&jac.blocks[b1], &jac.blocks[b2]);
-                    let (w1, w2) = (Jacobian::width(p), Jacobian::width(q));
-                    for r1 in 0..p.rows {
-                        for r2 in 0..q.rows {
-                            let (i, j) = (p.row0 + r1, q.row0 + r2);
-                            if i > j {
-                                continue;
-                            }
-                            contrib.push(Contrib {
-                                s: pos(i, j) as u32,
-                                o1: (p.offset + r1 * w1 + 3 * jj1) as u32,
-                                o2: (q.offset + r2 * w2 + 3 * jj2) as u32,
-                                c0: (3 * joint) as u32,
-                            });
-                        }
-                    }
-                }
-            }
-        }
-        // Entries in storage order: the refill then streams through S.
-        contrib.sort_unstable_by_key(|c| (c.s, c.o1, c.o2));
-        self.contrib = contrib;
-        self.s_vals = vec![0.0; nnz];
-        self.signs = vec![1; m];
+        let all: Vec<usize> = (0..m).collect();
+        self.full = Pattern::new(jac, &all)?;
+        self.reduced = None;
+        self.probe_l = vec![0.0; self.full.len_val];
         for b in [
             &mut self.res,
             &mut self.dl,
@@ -268,122 +257,118 @@ impl SparseSchur {
         for b in [&mut self.g, &mut self.dg, &mut self.g_keep] {
             *b = vec![0.0; n];
         }
-        for slot in &mut self.slots {
-            *slot = Slot::default();
+        for (k, slot) in self.slots.iter_mut().enumerate() {
+            *slot = Slot {
+                kind: if k == REGULARIZED_SLOT {
+                    SlotKind::Regularized
+                } else {
+                    SlotKind::Rejecting
+                },
+                ..Slot::default()
+            };
         }
-        if m == 0 {
-            self.symbolic = None;
-            self.mem = None;
-            return Ok(());
-        }
-        let sym = SymbolicSparseColMatRef::new_checked(m, m, &self.col_ptr, None, &self.row_idx);
-        let symbolic = factorize_symbolic_cholesky(
-            sym,
-            Side::Upper,
-            SymmetricOrdering::Amd,
-            Default::default(),
-        )
-        .map_err(|e| SolverError::Invalid(format!("sparse symbolic factorization: {e:?}")))?;
-        let req = StackReq::any_of(&[
-            symbolic.factorize_numeric_ldlt_scratch::<f64>(Par::Seq, Default::default()),
-            symbolic.solve_in_place_scratch::<f64>(1, Par::Seq),
-        ]);
-        for slot in &mut self.slots {
-            slot.l_vals = vec![0.0; symbolic.len_val()];
-        }
-        self.mem = Some(MemBuffer::new(req));
-        self.symbolic = Some(symbolic);
+        self.slots[REGULARIZED_SLOT].l_vals = vec![0.0; self.full.len_val];
+        self.rank = None;
         Ok(())
     }
 
-    /// Numeric LDL^T of S + delta I at the current Jacobian values into slot k.
+    /// Finds the redundant rows at the current configuration (a rejecting
+    /// factorization of the full S) and builds the pattern of the kept rows.
+    fn probe(&mut self, jac: &Jacobian, inv_mass: &[f64]) -> Result<(), SolverError> {
+        let m = self.sig_rows;
+        self.full.fill(jac, inv_mass)?;
+        let mut scale = vec![0.0; m];
+        self.full.scale_to_unit_diagonal(&mut scale);
+        self.full.factor(&mut self.probe_l, rejecting())?;
+        let mut kept_mask = vec![true; m];
+        for r in self.full.rejected_rows(&self.probe_l) {
+            kept_mask[r] = false;
+        }
+        let kept: Vec<usize> = (0..m).filter(|&i| kept_mask[i]).collect();
+        let reduced = Pattern::new(jac, &kept)?;
+        for slot in &mut self.slots[..REGULARIZED_SLOT] {
+            slot.l_vals = vec![0.0; reduced.len_val];
+            slot.scale = vec![0.0; kept.len()];
+            slot.valid = false;
+        }
+        self.xr = vec![0.0; kept.len()];
+        self.reduced = Some(reduced);
+        Ok(())
+    }
+
+    /// Numeric factorization at the current Jacobian values into slot k, of the
+    /// kind the slot holds (see the module notes).
     fn refactor(&mut self, jac: &Jacobian, inv_mass: &[f64], k: usize) -> Result<(), SolverError> {
         self.factored = false;
         self.active = k;
-        let v = &jac.values;
-        self.s_vals.fill(0.0);
-        for c in &self.contrib {
-            let (o1, o2, c0) = (c.o1 as usize, c.o2 as usize, c.c0 as usize);
-            self.s_vals[c.s as usize] += v[o1] * v[o2] * inv_mass[c0]
-                + v[o1 + 1] * v[o2 + 1] * inv_mass[c0 + 1]
-                + v[o1 + 2] * v[o2 + 2] * inv_mass[c0 + 2];
-        }
-        if self.s_vals.iter().any(|x| !x.is_finite()) {
-            return Err(SolverError::NonFinite("constraint Jacobian".into()));
-        }
-        let dmax = self
-            .diag_pos
-            .iter()
-            .fold(0.0f64, |a, &p| a.max(self.s_vals[p]));
-        let mut delta = REG_REL * dmax;
-        if delta == 0.0 {
-            delta = f64::MIN_POSITIVE;
-        }
-        for &p in &self.diag_pos {
-            self.s_vals[p] += delta;
+        let kind = self.slots[k].kind;
+        if kind == SlotKind::Rejecting && self.reduced.is_none() {
+            self.probe(jac, inv_mass)?;
         }
         let slot = &mut self.slots[k];
-        slot.delta = delta;
+        match kind {
+            SlotKind::Rejecting => {
+                let pat = self.reduced.as_mut().expect("probed");
+                pat.fill(jac, inv_mass)?;
+                pat.scale_to_unit_diagonal(&mut slot.scale);
+                pat.factor(&mut slot.l_vals, rejecting())?;
+                // Rows the probe kept are independent; a rejection here means
+                // the rank dropped since (a singular configuration).
+                slot.rejected = pat.rejected_rows(&slot.l_vals).count();
+                self.rank = Some(pat.rows.len() - slot.rejected);
+            }
+            SlotKind::Regularized => {
+                let pat = &mut self.full;
+                pat.fill(jac, inv_mass)?;
+                let dmax = pat.max_diagonal();
+                let mut delta = REG_REL * dmax;
+                if delta == 0.0 {
+                    delta = f64::MIN_POSITIVE;
+                }
+                pat.add_to_diagonal(delta);
+                slot.delta = delta;
+                // Pivots are at least delta in exact arithmetic; guard against roundoff.
+                pat.factor(&mut slot.l_vals, (delta, 0.5 * delta))?;
+            }
+        }
         slot.inv_mass.clear();
         slot.inv_mass.extend_from_slice(inv_mass);
         slot.valid = true;
         slot.age = 0;
         slot.worst_iterations = 0;
         self.numeric_factorizations += 1;
-        let (Some(sym), Some(mem)) = (self.symbolic.as_ref(), self.mem.as_mut()) else {
-            self.factored = true;
-            return Ok(()); // no rows
-        };
-        let m = self.sig_rows;
-        let a = SparseColMatRef::new(
-            SymbolicSparseColMatRef::new_checked(m, m, &self.col_ptr, None, &self.row_idx),
-            &self.s_vals,
-        );
-        // Pivots are at least delta in exact arithmetic; guard against roundoff.
-        let reg = LdltRegularization {
-            dynamic_regularization_signs: Some(&self.signs),
-            dynamic_regularization_delta: delta,
-            dynamic_regularization_epsilon: 0.5 * delta,
-        };
-        sym.factorize_numeric_ldlt(
-            &mut self.slots[k].l_vals,
-            a,
-            Side::Upper,
-            reg,
-            Par::Seq,
-            MemStack::new(mem),
-            Default::default(),
-        )
-        .map_err(|e| SolverError::NonFinite(format!("sparse LDLT of S ({e:?})")))?;
         self.factored = true;
         Ok(())
     }
 
-    /// dl <- R^-1 dl with the current factorization.
-    fn ldlt_solve(&mut self) {
-        let (Some(sym), Some(mem)) = (self.symbolic.as_ref(), self.mem.as_mut()) else {
-            return;
-        };
-        let m = self.dl.len();
-        LdltRef::new(sym, &self.slots[self.active].l_vals).solve_in_place_with_conj(
-            Conj::No,
-            MatMut::from_column_major_slice_mut(&mut self.dl, m, 1),
-            Par::Seq,
-            MemStack::new(mem),
-        );
-    }
-
-    /// z <- P r for the preconditioner P = R^-1, or P = R^-1 S R^-1 =
-    /// R^-1 (I - delta R^-1) when `projected` (r in `self.res`, z in `self.dl`).
+    /// z <- P r (r in `self.res`, z in `self.dl`) for the active slot's
+    /// preconditioner: P = D^-1/2 S~_kept^-1 D^-1/2 on the kept rows and 0 on
+    /// the others (Rejecting), P = R^-1, or P = R^-1 S R^-1 =
+    /// R^-1 (I - delta R^-1) when `projected` (Regularized).
     fn precondition(&mut self, projected: bool) {
-        self.dl.copy_from_slice(&self.res);
-        self.ldlt_solve();
-        if projected {
-            let delta = self.slots[self.active].delta;
-            for (d, r) in self.dl.iter_mut().zip(&self.res) {
-                *d = r - delta * *d;
+        let slot = &self.slots[self.active];
+        match slot.kind {
+            SlotKind::Rejecting => {
+                let pat = self.reduced.as_mut().expect("probed");
+                for ((x, &i), s) in self.xr.iter_mut().zip(&pat.rows).zip(&slot.scale) {
+                    *x = self.res[i] * s;
+                }
+                pat.solve(&slot.l_vals, &mut self.xr);
+                self.dl.fill(0.0);
+                for ((x, &i), s) in self.xr.iter().zip(&pat.rows).zip(&slot.scale) {
+                    self.dl[i] = x * s;
+                }
             }
-            self.ldlt_solve();
+            SlotKind::Regularized => {
+                self.dl.copy_from_slice(&self.res);
+                self.full.solve(&slot.l_vals, &mut self.dl);
+                if projected {
+                    for (d, r) in self.dl.iter_mut().zip(&self.res) {
+                        *d = r - slot.delta * *d;
+                    }
+                    self.full.solve(&slot.l_vals, &mut self.dl);
+                }
+            }
         }
     }
 
@@ -510,30 +495,56 @@ impl SparseSchur {
         }
     }
 
-    /// S^+ rhs: rhs in `self.res`; g and the minimum-norm lambda on return.
-    fn solve_min_norm(&mut self, jac: &Jacobian, inv_mass: &[f64]) {
+    /// Solves S lambda = rhs (rhs in `self.res`): g and lambda on return,
+    /// lambda minimum-norm when the active slot is the regularized one.
+    fn solve_min_norm(&mut self, jac: &Jacobian, inv_mass: &[f64], may_be_inconsistent: bool) {
         self.rhs_keep.copy_from_slice(&self.res);
-        let mut rel_res = self.pcg(jac, inv_mass, true);
+        let projected = self.slots[self.active].kind == SlotKind::Regularized;
+        let mut rel_res = self.pcg(jac, inv_mass, projected);
         self.total_iterations = self.last_iterations;
         self.solves += 1;
         self.cg_iterations += self.last_iterations as u64;
         let slot = &mut self.slots[self.active];
         slot.worst_iterations = slot.worst_iterations.max(self.last_iterations);
-        if rel_res > INCONSISTENT && slot.age > 0 {
-            // A kept factorization may be too far off: refactor here and retry.
+        // A basic solve satisfies the kept rows; the rejected ones follow from
+        // them up to the rhs's own inconsistency, which the simulator's rhs have
+        // at second order (a position residual Phi: |Phi| relative). Only a
+        // residual beyond that is a rank change or a truly inconsistent rhs.
+        // Position corrections (Phi) are the exception: Newton on the kept rows
+        // converges all the same, and the projection checks every row.
+        let tol = if projected {
+            INCONSISTENT
+        } else if may_be_inconsistent {
+            f64::INFINITY
+        } else {
+            BASIC_INCONSISTENT
+        };
+        if rel_res > tol && (slot.age > 0 || !projected) {
+            // A kept factorization may be too far off, or (basic) the rows the
+            // probe rejected are no longer all redundant: refactor here, for a
+            // basic solve after a new probe, and retry.
+            if !projected {
+                self.reduced = None;
+            }
             if self.refactor(jac, inv_mass, self.active).is_ok() {
                 self.res.copy_from_slice(&self.rhs_keep);
-                rel_res = self.pcg(jac, inv_mass, true);
+                rel_res = self.pcg(jac, inv_mass, projected);
                 self.total_iterations += self.last_iterations;
             }
         }
-        if rel_res <= INCONSISTENT {
+        if rel_res <= tol {
             return;
         }
-        // The rhs has a component along null(S) (or CG stalled): g by the
+        // The rhs has a component along null(S) (or CG stalled): the
+        // least-squares answer needs the regularized factorization. g by the
         // robust projected iteration, then lambda = S^+ (A g), a consistent rhs,
         // by CG for the minimum-norm multipliers (g kept from the first).
         self.inconsistent_solves += 1;
+        let back_to = self.active;
+        if !projected && self.refactor(jac, inv_mass, REGULARIZED_SLOT).is_err() {
+            self.active = back_to;
+            return;
+        }
         self.res.copy_from_slice(&self.rhs_keep);
         self.richardson(jac, inv_mass);
         self.total_iterations += self.last_iterations;
@@ -542,6 +553,245 @@ impl SparseSchur {
         self.pcg(jac, inv_mass, true);
         self.total_iterations += self.last_iterations;
         std::mem::swap(&mut self.g, &mut self.g_keep);
+        self.active = back_to;
+    }
+}
+
+/// Dynamic regularization (delta, epsilon) that rejects redundant rows of a
+/// unit-diagonal S: a pivot below `REJECT_TOL` becomes `REJECT_DELTA`.
+fn rejecting() -> (f64, f64) {
+    (REJECT_DELTA, REJECT_TOL)
+}
+
+/// The upper triangle of S = A M^-1 A^T over a subset of the rows (CSC, sorted
+/// rows), the flat list of products that refills it, and its symbolic LDL^T.
+#[derive(Default)]
+struct Pattern {
+    /// The constraint rows this S is over, ascending (S index t = row rows[t]).
+    rows: Vec<usize>,
+    col_ptr: Vec<usize>,
+    row_idx: Vec<usize>,
+    s_vals: Vec<f64>,
+    diag_pos: Vec<usize>,
+    contrib: Vec<Contrib>,
+    signs: Vec<i8>,
+    symbolic: Option<SymbolicCholesky<usize>>,
+    mem: Option<MemBuffer>,
+    len_val: usize,
+}
+
+impl Pattern {
+    /// S couples two rows exactly when their elements share a joint, so the
+    /// pattern follows from the Jacobian's block structure alone.
+    fn new(jac: &Jacobian, rows: &[usize]) -> Result<Pattern, SolverError> {
+        const NONE: usize = usize::MAX;
+        let mr = rows.len();
+        let mut map = vec![NONE; jac.nrows];
+        for (t, &i) in rows.iter().enumerate() {
+            map[i] = t;
+        }
+        // Incidences (block, local joint) of every joint.
+        let mut inc: Vec<Vec<(usize, usize)>> = vec![Vec::new(); jac.ncols / 3];
+        for (bi, b) in jac.blocks.iter().enumerate() {
+            for (jj, &c0) in b.cols.iter().enumerate() {
+                inc[c0 / 3].push((bi, jj));
+            }
+        }
+        // Every pair of rows (i <= j, both kept) of elements sharing a joint.
+        let pairs = |f: &mut dyn FnMut(usize, usize, usize, usize, usize, usize, usize)| {
+            for (joint, list) in inc.iter().enumerate() {
+                for &(b1, jj1) in list {
+                    for &(b2, jj2) in list {
+                        let (p, q) = (&jac.blocks[b1], &jac.blocks[b2]);
+                        let (w1, w2) = (Jacobian::width(p), Jacobian::width(q));
+                        for r1 in 0..p.rows {
+                            let i = map[p.row0 + r1];
+                            if i == NONE {
+                                continue;
+                            }
+                            for r2 in 0..q.rows {
+                                let j = map[q.row0 + r2];
+                                if j == NONE || i > j {
+                                    continue;
+                                }
+                                f(
+                                    i,
+                                    j,
+                                    p.offset + r1 * w1 + 3 * jj1,
+                                    q.offset + r2 * w2 + 3 * jj2,
+                                    3 * joint,
+                                    0,
+                                    0,
+                                );
+                            }
+                        }
+                    }
+                }
+            }
+        };
+        let mut cols: Vec<Vec<usize>> = (0..mr).map(|i| vec![i]).collect();
+        pairs(&mut |i, j, _, _, _, _, _| cols[j].push(i));
+        let mut pat = Pattern {
+            rows: rows.to_vec(),
+            col_ptr: vec![0],
+            ..Pattern::default()
+        };
+        for c in &mut cols {
+            c.sort_unstable();
+            c.dedup();
+            pat.row_idx.extend_from_slice(c);
+            pat.col_ptr.push(pat.row_idx.len());
+        }
+        let nnz = pat.row_idx.len();
+        if nnz > u32::MAX as usize || jac.values.len() > u32::MAX as usize {
+            return Err(SolverError::Invalid(
+                "constraint system too large for the sparse solver".into(),
+            ));
+        }
+        let pos = |i: usize, j: usize| -> usize {
+            let lo = pat.col_ptr[j];
+            lo + pat.row_idx[lo..pat.col_ptr[j + 1]]
+                .binary_search(&i)
+                .expect("entry in pattern")
+        };
+        pat.diag_pos = (0..mr).map(|i| pos(i, i)).collect();
+        let mut contrib = Vec::new();
+        pairs(&mut |i, j, o1, o2, c0, _, _| {
+            contrib.push(Contrib {
+                s: pos(i, j) as u32,
+                o1: o1 as u32,
+                o2: o2 as u32,
+                c0: c0 as u32,
+            })
+        });
+        // Entries in storage order: the refill then streams through S.
+        contrib.sort_unstable_by_key(|c| (c.s, c.o1, c.o2));
+        pat.contrib = contrib;
+        pat.s_vals = vec![0.0; nnz];
+        pat.signs = vec![1; mr];
+        if mr == 0 {
+            return Ok(pat);
+        }
+        let sym = SymbolicSparseColMatRef::new_checked(mr, mr, &pat.col_ptr, None, &pat.row_idx);
+        // Simplicial: the pivots D are then the heads of L's columns, which is
+        // where rejected rows are found.
+        let symbolic = factorize_symbolic_cholesky(
+            sym,
+            Side::Upper,
+            SymmetricOrdering::Amd,
+            CholeskySymbolicParams {
+                supernodal_flop_ratio_threshold: SupernodalThreshold::FORCE_SIMPLICIAL,
+                ..Default::default()
+            },
+        )
+        .map_err(|e| SolverError::Invalid(format!("sparse symbolic factorization: {e:?}")))?;
+        let req = StackReq::any_of(&[
+            symbolic.factorize_numeric_ldlt_scratch::<f64>(Par::Seq, Default::default()),
+            symbolic.solve_in_place_scratch::<f64>(1, Par::Seq),
+        ]);
+        pat.len_val = symbolic.len_val();
+        pat.mem = Some(MemBuffer::new(req));
+        pat.symbolic = Some(symbolic);
+        Ok(pat)
+    }
+
+    /// S_ij = sum over shared joints of A_i M^-1 A_j at the current values.
+    fn fill(&mut self, jac: &Jacobian, inv_mass: &[f64]) -> Result<(), SolverError> {
+        let v = &jac.values;
+        self.s_vals.fill(0.0);
+        for c in &self.contrib {
+            let (o1, o2, c0) = (c.o1 as usize, c.o2 as usize, c.c0 as usize);
+            self.s_vals[c.s as usize] += v[o1] * v[o2] * inv_mass[c0]
+                + v[o1 + 1] * v[o2 + 1] * inv_mass[c0 + 1]
+                + v[o1 + 2] * v[o2 + 2] * inv_mass[c0 + 2];
+        }
+        if self.s_vals.iter().any(|x| !x.is_finite()) {
+            return Err(SolverError::NonFinite("constraint Jacobian".into()));
+        }
+        Ok(())
+    }
+
+    /// S <- D^-1/2 S D^-1/2 with scale = D^-1/2 (0 for an empty row, whose
+    /// pivot is then 0 and which is rejected).
+    fn scale_to_unit_diagonal(&mut self, scale: &mut [f64]) {
+        for (s, &p) in scale.iter_mut().zip(&self.diag_pos) {
+            let d = self.s_vals[p];
+            *s = if d > 0.0 { 1.0 / d.sqrt() } else { 0.0 };
+        }
+        for j in 0..self.rows.len() {
+            for p in self.col_ptr[j]..self.col_ptr[j + 1] {
+                self.s_vals[p] *= scale[self.row_idx[p]] * scale[j];
+            }
+        }
+    }
+
+    fn max_diagonal(&self) -> f64 {
+        self.diag_pos
+            .iter()
+            .fold(0.0f64, |a, &p| a.max(self.s_vals[p]))
+    }
+
+    fn add_to_diagonal(&mut self, delta: f64) {
+        for &p in &self.diag_pos {
+            self.s_vals[p] += delta;
+        }
+    }
+
+    /// Numeric LDL^T of the current values into `l_vals`; a pivot below
+    /// epsilon becomes delta (`reg` = (delta, epsilon)).
+    fn factor(&mut self, l_vals: &mut [f64], reg: (f64, f64)) -> Result<(), SolverError> {
+        let (Some(sym), Some(mem)) = (self.symbolic.as_ref(), self.mem.as_mut()) else {
+            return Ok(()); // no rows
+        };
+        let m = self.rows.len();
+        let a = SparseColMatRef::new(
+            SymbolicSparseColMatRef::new_checked(m, m, &self.col_ptr, None, &self.row_idx),
+            &self.s_vals,
+        );
+        let reg = LdltRegularization {
+            dynamic_regularization_signs: Some(&self.signs),
+            dynamic_regularization_delta: reg.0,
+            dynamic_regularization_epsilon: reg.1,
+        };
+        sym.factorize_numeric_ldlt(
+            l_vals,
+            a,
+            Side::Upper,
+            reg,
+            Par::Seq,
+            MemStack::new(mem),
+            Default::default(),
+        )
+        .map_err(|e| SolverError::NonFinite(format!("sparse LDLT of S ({e:?})")))?;
+        Ok(())
+    }
+
+    /// Constraint rows whose pivot a rejecting factorization replaced.
+    fn rejected_rows<'a>(&'a self, l_vals: &'a [f64]) -> impl Iterator<Item = usize> + 'a {
+        let sym = self.symbolic.as_ref();
+        let heads: &[usize] = match sym.map(|s| s.raw()) {
+            Some(SymbolicCholeskyRaw::Simplicial(simp)) => &simp.col_ptr()[..self.rows.len()],
+            _ => &[],
+        };
+        let perm = sym.and_then(|s| s.perm()).map(|p| p.arrays().0);
+        heads.iter().enumerate().filter_map(move |(k, &p)| {
+            // column k of L is row fwd[k] of S
+            (l_vals[p] >= 0.5 * REJECT_DELTA).then(|| self.rows[perm.map_or(k, |f| f[k])])
+        })
+    }
+
+    /// x <- (L D L^T)^-1 x.
+    fn solve(&mut self, l_vals: &[f64], x: &mut [f64]) {
+        let (Some(sym), Some(mem)) = (self.symbolic.as_ref(), self.mem.as_mut()) else {
+            return;
+        };
+        let m = x.len();
+        LdltRef::new(sym, l_vals).solve_in_place_with_conj(
+            Conj::No,
+            MatMut::from_column_major_slice_mut(x, m, 1),
+            Par::Seq,
+            MemStack::new(mem),
+        );
     }
 }
 
@@ -561,21 +811,47 @@ impl ConstraintSolver for SparseSchur {
         if jac.values.iter().any(|x| !x.is_finite()) {
             return Err(SolverError::NonFinite("constraint Jacobian".into()));
         }
-        // Reuse a kept factorization for this mass matrix while it still
-        // preconditions well; otherwise refactor into its slot (or the other one).
-        let matching = (0..2).find(|&k| self.slots[k].valid && self.slots[k].inv_mass == inv_mass);
+        // Reuse a kept factorization of the wanted kind for this mass matrix
+        // while it still preconditions well; otherwise refactor into its slot
+        // (or the least recently made one of that kind).
+        let candidates: &[usize] = if self.min_norm {
+            &[REGULARIZED_SLOT]
+        } else {
+            &[0, 1]
+        };
+        let matching = candidates
+            .iter()
+            .copied()
+            .find(|&k| self.slots[k].valid && self.slots[k].inv_mass == inv_mass);
         if let Some(k) = matching {
             let slot = &mut self.slots[k];
             slot.age += 1;
-            if slot.worst_iterations <= REUSE_MAX_ITERATIONS && slot.age <= MAX_AGE {
+            let max_age = match slot.kind {
+                SlotKind::Rejecting => BASIC_MAX_AGE,
+                SlotKind::Regularized => MAX_AGE,
+            };
+            if slot.worst_iterations <= REUSE_MAX_ITERATIONS && slot.age <= max_age {
                 self.active = k;
                 self.factored = true;
                 self.reused_factorizations += 1;
                 return Ok(());
             }
         }
-        let k = matching.unwrap_or(1 - self.active);
+        let k = matching.unwrap_or_else(|| {
+            if self.min_norm {
+                REGULARIZED_SLOT
+            } else if self.active < REGULARIZED_SLOT {
+                1 - self.active
+            } else {
+                0
+            }
+        });
         self.refactor(jac, inv_mass, k)
+    }
+
+    fn set_min_norm(&mut self, on: bool) -> bool {
+        self.min_norm = on;
+        true
     }
 
     fn accelerations(
@@ -599,7 +875,7 @@ impl ConstraintSolver for SparseSchur {
         for (i, r) in self.res.iter_mut().enumerate() {
             *r = -c.get(i).copied().unwrap_or(0.0) - *r;
         }
-        self.solve_min_norm(jac, inv_mass);
+        self.solve_min_norm(jac, inv_mass, false);
         for i in 0..n {
             a[i] += self.g[i];
         }
@@ -621,7 +897,7 @@ impl ConstraintSolver for SparseSchur {
             return;
         }
         self.res.copy_from_slice(&r[..jac.nrows]);
-        self.solve_min_norm(jac, inv_mass);
+        self.solve_min_norm(jac, inv_mass, true);
         dx.copy_from_slice(&self.g[..dx.len()]);
         let k = mu.len().min(self.lam.len());
         mu[..k].copy_from_slice(&self.lam[..k]);
@@ -633,11 +909,15 @@ impl ConstraintSolver for SparseSchur {
 
     fn diagnostics(&self) -> String {
         format!(
-            "{} numeric factorizations ({} reused), {} solves, {:.2} CG iterations per solve",
+            "{} numeric factorizations ({} reused), {} solves, {:.2} CG iterations per solve, \
+             {} inconsistent, rank {}",
             self.numeric_factorizations,
             self.reused_factorizations,
             self.solves,
-            self.cg_iterations as f64 / self.solves.max(1) as f64
+            self.cg_iterations as f64 / self.solves.max(1) as f64,
+            self.inconsistent_solves,
+            self.rank
+                .map_or("?".to_string(), |r| format!("{r} of {}", self.sig_rows))
         )
     }
 }
