@@ -99,14 +99,37 @@ impl Jacobian {
 
     /// out = A v
     pub fn mul(&self, v: &[f64], out: &mut [f64]) {
-        out[..self.nrows].fill(0.0);
-        self.for_each(|r, c, a| out[r] += a * v[c]);
+        let out = &mut out[..self.nrows];
+        for b in &self.blocks {
+            let w = Self::width(b);
+            let vals = &self.values[b.offset..b.offset + b.rows * w];
+            for (r, row) in vals.chunks_exact(w).enumerate() {
+                let mut sum = 0.0;
+                for (a, &c0) in row.chunks_exact(3).zip(&b.cols) {
+                    let x = &v[c0..c0 + 3];
+                    sum += a[0] * x[0] + a[1] * x[1] + a[2] * x[2];
+                }
+                out[b.row0 + r] = sum;
+            }
+        }
     }
 
     /// out = A^T y
     pub fn mul_t(&self, y: &[f64], out: &mut [f64]) {
         out[..self.ncols].fill(0.0);
-        self.for_each(|r, c, a| out[c] += a * y[r]);
+        for b in &self.blocks {
+            let w = Self::width(b);
+            let vals = &self.values[b.offset..b.offset + b.rows * w];
+            for (r, row) in vals.chunks_exact(w).enumerate() {
+                let yr = y[b.row0 + r];
+                for (a, &c0) in row.chunks_exact(3).zip(&b.cols) {
+                    let o = &mut out[c0..c0 + 3];
+                    o[0] += a[0] * yr;
+                    o[1] += a[1] * yr;
+                    o[2] += a[2] * yr;
+                }
+            }
+        }
     }
 
     pub fn to_dense(&self) -> nalgebra::DMatrix<f64> {

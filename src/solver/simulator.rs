@@ -326,6 +326,7 @@ impl Core {
         self.lagged_friction = false;
         let mut min_norm = false;
         let (mut last_change, mut stalls) = (f64::INFINITY, 0);
+        let (mut best_change, mut no_progress) = (f64::INFINITY, 0);
         for _ in 0..opts.max_newmark_iters {
             for i in 0..self.x.len() {
                 let asum = s.a[i] + self.a_guess[i];
@@ -356,13 +357,22 @@ impl Core {
                 0
             };
             last_change = change;
-            if stalls >= 4 && !min_norm && self.solver.set_min_norm(true) {
+            // (no progress on the best iterate so far also catches a cycle whose
+            // change alternates up and down)
+            no_progress = if change >= 0.9 * best_change {
+                no_progress + 1
+            } else {
+                0
+            };
+            best_change = best_change.min(change);
+            if (stalls >= 4 || no_progress >= 4) && !min_norm && self.solver.set_min_norm(true) {
                 // Basic solves (redundant rows dropped) make a less contractive
                 // map than least-squares ones where the iterates leave the
                 // manifold; retry the step with the latter first.
                 min_norm = true;
                 self.a_guess.copy_from_slice(&s.a);
                 (last_change, stalls) = (f64::INFINITY, 0);
+                (best_change, no_progress) = (f64::INFINITY, 0);
             } else if stalls >= 4 && !self.lagged_friction && !model.cables.is_empty() {
                 self.lagged_friction = true;
                 self.a_guess.copy_from_slice(&s.a);

@@ -125,6 +125,8 @@ struct Slot {
     /// Rows rejected as redundant (Rejecting slot).
     rejected: usize,
     inv_mass: Vec<f64>,
+    /// The Jacobian values it was made at (basic slots).
+    jac_values: Vec<f64>,
     valid: bool,
     age: usize,
     /// Most CG iterations a solve needed with this factorization.
@@ -138,12 +140,13 @@ const REGULARIZED_SLOT: usize = 2;
 const REUSE_MAX_ITERATIONS: usize = 6;
 /// ... or after this many factor() calls.
 const MAX_AGE: usize = 64;
-/// Basic factorizations are not reused across factor() calls: the kept rows
-/// are a basis of the row space less well conditioned than all of them, and a
-/// factorization one call old took 4-19 CG iterations instead of 2 on the
-/// 18-sided ring (and did not converge near its deployed state), while a
-/// fresh one of the reduced system costs about as much as 6 of them.
-const BASIC_MAX_AGE: usize = 0;
+/// A basic factorization is reused while no Jacobian entry has moved by more
+/// than this (relative to the largest): the kept rows are a basis of the row
+/// space less well conditioned than all of them, and a factorization one step
+/// old took 4-19 CG iterations instead of 2 on the 18-sided ring (and did not
+/// converge near its deployed state), while the iterates of one Newmark step
+/// and its projections stay within ~1e-6 of each other.
+const BASIC_REUSE_TOL: f64 = 1e-6;
 
 #[derive(Default)]
 pub struct SparseSchur {
@@ -193,6 +196,8 @@ pub struct SparseSchur {
     last_iterations: usize,
     /// Refinement steps of the last solve (diagnostics).
     pub total_iterations: usize,
+    /// Probes for the redundant rows after the first of a locked set (rank changes).
+    pub reprobes: u64,
     /// Solves whose right-hand side had a component along null(S) (diagnostics).
     pub inconsistent_solves: u64,
 }
@@ -333,6 +338,8 @@ impl SparseSchur {
         }
         slot.inv_mass.clear();
         slot.inv_mass.extend_from_slice(inv_mass);
+        slot.jac_values.clear();
+        slot.jac_values.extend_from_slice(&jac.values);
         slot.valid = true;
         slot.age = 0;
         slot.worst_iterations = 0;
@@ -387,13 +394,15 @@ impl SparseSchur {
     /// residual stays large) and the solve redone.
     fn pcg(&mut self, jac: &Jacobian, inv_mass: &[f64], projected: bool) -> f64 {
         self.rhs2.copy_from_slice(&self.res);
-        self.lam.fill(0.0);
-        self.g.fill(0.0);
         let rmax = self.rhs2.iter().fold(0.0f64, |a, v| a.max(v.abs()));
         if rmax == 0.0 {
+            self.lam.fill(0.0);
+            self.g.fill(0.0);
             self.last_iterations = 0;
             return 0.0;
         }
+        self.lam.fill(0.0);
+        self.g.fill(0.0);
         self.precondition(projected);
         self.p.copy_from_slice(&self.dl);
         let mut rz = dot(&self.res, &self.dl);
@@ -519,13 +528,23 @@ impl SparseSchur {
         } else {
             BASIC_INCONSISTENT
         };
-        if rel_res > tol && (slot.age > 0 || !projected) {
-            // A kept factorization may be too far off, or (basic) the rows the
-            // probe rejected are no longer all redundant: refactor here, for a
-            // basic solve after a new probe, and retry.
-            if !projected {
-                self.reduced = None;
+        // A kept factorization may be too far off (CG was slow, or the residual
+        // is off): refactor here and retry. A basic solve still off
+        // with a fresh factorization means the rows the probe rejected are no
+        // longer all redundant (a rank change): probe again and retry.
+        // (A slow CG may have stopped at its roundoff floor, ~1e-12, short of
+        // the accuracy a fresh factorization gives in two iterations.)
+        let stalled = self.last_iterations > REUSE_MAX_ITERATIONS;
+        if (rel_res > tol || stalled) && slot.age > 0 {
+            if self.refactor(jac, inv_mass, self.active).is_ok() {
+                self.res.copy_from_slice(&self.rhs_keep);
+                rel_res = self.pcg(jac, inv_mass, projected);
+                self.total_iterations += self.last_iterations;
             }
+        }
+        if rel_res > tol && !projected {
+            self.reduced = None;
+            self.reprobes += 1;
             if self.refactor(jac, inv_mass, self.active).is_ok() {
                 self.res.copy_from_slice(&self.rhs_keep);
                 rel_res = self.pcg(jac, inv_mass, projected);
@@ -555,6 +574,19 @@ impl SparseSchur {
         std::mem::swap(&mut self.g, &mut self.g_keep);
         self.active = back_to;
     }
+}
+
+/// Whether two inverse mass matrices differ by a scalar factor only (M and
+/// M + h/2 C with uniform masses and damping): S then differs by that factor,
+/// to which preconditioned CG is blind, so one factorization serves both.
+fn proportional(a: &[f64], b: &[f64]) -> bool {
+    let (Some(&a0), Some(&b0)) = (a.first(), b.first()) else {
+        return a.len() == b.len();
+    };
+    a.len() == b.len()
+        && a.iter()
+            .zip(b)
+            .all(|(x, y)| (x * b0 - y * a0).abs() <= 1e-14 * (x * b0).abs())
 }
 
 /// Dynamic regularization (delta, epsilon) that rejects redundant rows of a
@@ -819,18 +851,31 @@ impl ConstraintSolver for SparseSchur {
         } else {
             &[0, 1]
         };
-        let matching = candidates
-            .iter()
-            .copied()
-            .find(|&k| self.slots[k].valid && self.slots[k].inv_mass == inv_mass);
+        let matching = candidates.iter().copied().find(|&k| {
+            let slot = &self.slots[k];
+            // (Richardson, in the regularized fallback, is not blind to scale.)
+            slot.valid
+                && match slot.kind {
+                    SlotKind::Rejecting => proportional(&slot.inv_mass, inv_mass),
+                    SlotKind::Regularized => slot.inv_mass == inv_mass,
+                }
+        });
         if let Some(k) = matching {
             let slot = &mut self.slots[k];
             slot.age += 1;
-            let max_age = match slot.kind {
-                SlotKind::Rejecting => BASIC_MAX_AGE,
-                SlotKind::Regularized => MAX_AGE,
+            // A basic factorization is reused while A has moved little since.
+            let near = match slot.kind {
+                SlotKind::Rejecting => {
+                    let (mut dmax, mut amax) = (0.0f64, 0.0f64);
+                    for (a, b) in jac.values.iter().zip(&slot.jac_values) {
+                        dmax = dmax.max((a - b).abs());
+                        amax = amax.max(a.abs());
+                    }
+                    dmax <= BASIC_REUSE_TOL * amax
+                }
+                SlotKind::Regularized => slot.age <= MAX_AGE,
             };
-            if slot.worst_iterations <= REUSE_MAX_ITERATIONS && slot.age <= max_age {
+            if slot.worst_iterations <= REUSE_MAX_ITERATIONS && near {
                 self.active = k;
                 self.factored = true;
                 self.reused_factorizations += 1;
@@ -910,12 +955,13 @@ impl ConstraintSolver for SparseSchur {
     fn diagnostics(&self) -> String {
         format!(
             "{} numeric factorizations ({} reused), {} solves, {:.2} CG iterations per solve, \
-             {} inconsistent, rank {}",
+             {} inconsistent, {} re-probes, rank {}",
             self.numeric_factorizations,
             self.reused_factorizations,
             self.solves,
             self.cg_iterations as f64 / self.solves.max(1) as f64,
             self.inconsistent_solves,
+            self.reprobes,
             self.rank
                 .map_or("?".to_string(), |r| format!("{r} of {}", self.sig_rows))
         )
