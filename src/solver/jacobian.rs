@@ -22,7 +22,13 @@ pub struct Jacobian {
     pub ncols: usize,
     pub blocks: Vec<Block>,
     pub values: Vec<f64>,
+    /// Names the block structure: a fresh number per `pattern()`, shared by
+    /// clones (0: unnamed, compared block by block). Solvers key their
+    /// symbolic analysis on it.
+    pub structure_id: u64,
 }
+
+static NEXT_STRUCTURE_ID: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
 
 impl Jacobian {
     pub fn pattern(model: &Model, locked: &[bool]) -> Jacobian {
@@ -49,6 +55,7 @@ impl Jacobian {
             ncols: model.n_coords(),
             blocks,
             values: vec![0.0; offset],
+            structure_id: NEXT_STRUCTURE_ID.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
         }
     }
 

@@ -155,6 +155,7 @@ pub struct SparseSchur {
     sig_cols: usize,
     sig_blocks: Vec<(usize, usize, usize, usize)>,
     sig_joints: Vec<usize>,
+    sig_id: u64,
     ready: bool,
     /// S over every row (minimum-norm solves, and the probe that finds the
     /// redundant rows), and over the kept rows only (basic solves; built once
@@ -204,6 +205,9 @@ pub struct SparseSchur {
 
 impl SparseSchur {
     fn same_structure(&self, jac: &Jacobian) -> bool {
+        if self.ready && jac.structure_id != 0 && jac.structure_id == self.sig_id {
+            return true;
+        }
         if !self.ready
             || self.sig_rows != jac.nrows
             || self.sig_cols != jac.ncols
@@ -231,6 +235,7 @@ impl SparseSchur {
         let (m, n) = (jac.nrows, jac.ncols);
         self.sig_rows = m;
         self.sig_cols = n;
+        self.sig_id = jac.structure_id;
         self.sig_blocks = jac
             .blocks
             .iter()
@@ -840,7 +845,8 @@ impl ConstraintSolver for SparseSchur {
         if !self.same_structure(jac) {
             self.setup(jac)?;
         }
-        if jac.values.iter().any(|x| !x.is_finite()) {
+        // (the sum is NaN or infinite exactly when an entry is)
+        if !jac.values.iter().map(|x| x * 0.0).sum::<f64>().is_finite() {
             return Err(SolverError::NonFinite("constraint Jacobian".into()));
         }
         // Reuse a kept factorization of the wanted kind for this mass matrix
