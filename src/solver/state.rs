@@ -59,6 +59,9 @@ pub struct State {
     pub cable_tension_cmd_n: Vec<f64>,
     pub cables: Vec<CableEval>,
     /// Lagrange multipliers of the active rows (row order of the current Jacobian).
+    /// With redundant rows the split is statically indeterminate: the dense
+    /// solver gives the minimum-norm one, the sparse solver one that leaves the
+    /// rows it found redundant at zero (both give the same joint forces A^T lambda).
     pub lambda: Vec<f64>,
     pub energy: Energy,
     pub locks: Vec<LockEvent>,

@@ -6,9 +6,13 @@
 //!   the M-norm with A dX = r, used for position and velocity projection and for
 //!   latch impulses (its multipliers mu = S^+ r are the impulses).
 //!
-//! Redundant rows make S singular; every backend returns the minimum-norm
-//! multipliers (S^+), which leaves the motion unique. A backend is factored once
-//! per configuration and then solves as often as needed.
+//! Redundant rows make S singular. The motion (accelerations, corrections,
+//! joint forces A^T lambda) is unique; the multipliers are not. In
+//! minimum-norm mode (`set_min_norm`) every backend returns S^+ r, the
+//! least-squares, minimum-norm multipliers; otherwise a backend may return any
+//! exact set (the sparse one leaves the rows it found redundant at zero). A
+//! backend is factored once per configuration and then solves as often as
+//! needed.
 
 use super::jacobian::Jacobian;
 use super::SolverError;
