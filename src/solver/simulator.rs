@@ -526,22 +526,24 @@ impl Simulator {
         self.model.locks.iter().all(|&e| self.state.locked[e])
     }
 
-    /// Mechanisms 3n - rank A of the current constraint set. Past
-    /// RANK_CHECK_MAX_COORDS, with a solver that does not reveal the rank, the dense
-    /// SVD would dominate the run: the Maxwell lower bound 3n - rows is reported.
+    /// Mechanisms 3n - rank A of the current constraint set: the rank from the
+    /// solver where it is exact (dense SVD), else from a dense SVD up to
+    /// RANK_CHECK_MAX_COORDS (the same count as `analyze`), and past that (where
+    /// the SVD would dominate the run) from the pivots of the sparse solver's
+    /// redundant-row probe at the last factorization; the Maxwell lower bound
+    /// 3n - rows only when neither is available.
     fn mechanisms_now(&self) -> usize {
         let n = self.model.n_coords();
-        if self.core.solver.rank().is_none() && n > RANK_CHECK_MAX_COORDS {
-            return n.saturating_sub(self.core.jac.nrows);
-        }
-        n - self.rank_now()
-    }
-
-    fn rank_now(&self) -> usize {
-        match self.core.solver.rank() {
+        let solver = &self.core.solver;
+        let rank = match solver.rank() {
             Some(r) => r,
-            None => super::mobility::rank(&self.core.jac),
-        }
+            None if n <= RANK_CHECK_MAX_COORDS => super::mobility::rank(&self.core.jac),
+            None => match solver.pivot_rank() {
+                Some(r) => r,
+                None => return n.saturating_sub(self.core.jac.nrows),
+            },
+        };
+        n - rank
     }
 
     /// Advances the state by exactly `dt` seconds, latching sleeves on the way.
@@ -777,6 +779,9 @@ impl Simulator {
         })();
         let _ = core.solver.set_min_norm(false);
         settled?;
+        // A basic factorization of the new locked set at the latched state (the
+        // next step starts from it): its probe counts the rank for large models.
+        core.factor(model)?;
         let ke_before = self.state.kinetic_energy_j(model);
         let t = self.state.t_s;
         for &e in &newly {

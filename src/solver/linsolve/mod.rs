@@ -53,6 +53,12 @@ pub trait ConstraintSolver: Send {
     fn set_min_norm(&mut self, _on: bool) -> bool {
         false
     }
+    /// Rank of A by pivot rejection (redundant rows found by a factorization),
+    /// at the last basic factorization: cheaper than an SVD, with its own
+    /// threshold (see the backend), so only used where no SVD is affordable.
+    fn pivot_rank(&self) -> Option<usize> {
+        None
+    }
     /// Rank of A at the last factorization, where the method reveals it.
     fn rank(&self) -> Option<usize>;
     /// Counters for benchmarks (factorizations, iterations), as one line.

@@ -958,6 +958,10 @@ impl ConstraintSolver for SparseSchur {
         None
     }
 
+    fn pivot_rank(&self) -> Option<usize> {
+        self.rank
+    }
+
     fn diagnostics(&self) -> String {
         format!(
             "{} numeric factorizations ({} reused), {} solves, {:.2} CG iterations per solve, \
