@@ -1,6 +1,8 @@
-//! The sparse backend (regularized sparse LDL^T of S = A M^-1 A^T) against the
-//! dense SVD reference: single solves at configurations with redundant rows, and
-//! whole deployments of every bundled model, step by step.
+//! The sparse backend (sparse LDL^T of S = A M^-1 A^T over the rows a
+//! pivot-rejecting probe keeps; regularized for minimum-norm solves) against the
+//! dense SVD reference: single solves at configurations with redundant rows, the
+//! rank the probe finds, and whole deployments of every bundled model, step by
+//! step.
 
 use std::path::{Path, PathBuf};
 use truss_deploy::model::generate::{self, MastParams};
@@ -430,5 +432,48 @@ fn refinement_converges_in_few_steps() {
             "{} refinement steps",
             sp.total_iterations
         );
+    }
+}
+
+/// The rank the sparse solver's redundant-row probe finds (pivot rejection)
+/// equals the SVD rank, on every bundled model at its start and with every
+/// sleeve latched, and on the ring at its deployed geometry.
+#[test]
+fn pivot_rank_matches_the_svd_rank() {
+    use truss_deploy::model::generate::ring::{ring, ring_positions, RingParams};
+    let mut cases: Vec<(String, Model, Vec<f64>)> = models()
+        .into_iter()
+        .map(|p| {
+            let m = load(&p).expect("bundled model loads").model;
+            let x = m.x0.clone();
+            (p.display().to_string(), m, x)
+        })
+        .collect();
+    let p = RingParams::default();
+    let ring_model = parse(&ring(&p).unwrap().to_toml(), "ring.toml")
+        .unwrap()
+        .model;
+    let deployed: Vec<f64> = ring_positions(&p, 0.0).unwrap().concat();
+    assert_eq!(deployed.len(), ring_model.x0.len());
+    cases.push(("ring, deployed".into(), ring_model, deployed));
+    for (name, model, x) in &cases {
+        let unlocked = vec![false; model.elements.len()];
+        let latched: Vec<bool> = (0..model.elements.len())
+            .map(|e| model.locks.contains(&e))
+            .collect();
+        for locked in [&unlocked, &latched] {
+            let mut jac = Jacobian::pattern(model, locked);
+            jac.fill(model, x);
+            let mut sparse = SolverKind::Sparse.make();
+            sparse.factor(&jac, &model.inv_mass).expect("factors");
+            let svd = truss_deploy::solver::mobility::rank(&jac);
+            assert_eq!(
+                sparse.pivot_rank(),
+                Some(svd),
+                "{name}: pivot rank vs SVD rank ({} rows, {} coordinates)",
+                jac.nrows,
+                jac.ncols
+            );
+        }
     }
 }
