@@ -50,7 +50,7 @@ impl Default for Options {
 }
 
 /// Largest model (coordinates) whose mobility the simulator counts by a dense SVD
-/// when the solver does not reveal the rank (at the start and at latches).
+/// when the solver reveals no rank (at the start and at latches).
 const RANK_CHECK_MAX_COORDS: usize = 1500;
 
 /// Smallest sub-step, as a fraction of the requested step, tried before a
@@ -526,22 +526,18 @@ impl Simulator {
         self.model.locks.iter().all(|&e| self.state.locked[e])
     }
 
-    /// Mechanisms 3n - rank A of the current constraint set: the rank from the
-    /// solver where it is exact (dense SVD), else from a dense SVD up to
-    /// RANK_CHECK_MAX_COORDS (the same count as `analyze`), and past that (where
-    /// the SVD would dominate the run) from the pivots of the sparse solver's
-    /// redundant-row probe at the last factorization; the Maxwell lower bound
-    /// 3n - rows only when neither is available.
+    /// Mechanisms 3n - rank A of the current constraint set: the rank the
+    /// solver reveals (dense: SVD; sparse: the pivots of its redundant-row probe
+    /// at the last factorization, equal to the SVD rank on the bundled models:
+    /// tested), else a dense SVD up to RANK_CHECK_MAX_COORDS, else the Maxwell
+    /// lower bound 3n - rows.
     fn mechanisms_now(&self) -> usize {
         let n = self.model.n_coords();
         let solver = &self.core.solver;
-        let rank = match solver.rank() {
+        let rank = match solver.rank().or_else(|| solver.pivot_rank()) {
             Some(r) => r,
             None if n <= RANK_CHECK_MAX_COORDS => super::mobility::rank(&self.core.jac),
-            None => match solver.pivot_rank() {
-                Some(r) => r,
-                None => return n.saturating_sub(self.core.jac.nrows),
-            },
+            None => return n.saturating_sub(self.core.jac.nrows),
         };
         n - rank
     }
