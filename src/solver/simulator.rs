@@ -539,7 +539,9 @@ impl Simulator {
             None if n <= RANK_CHECK_MAX_COORDS => super::mobility::rank(&self.core.jac),
             None => return n.saturating_sub(self.core.jac.nrows),
         };
-        n - rank
+        // (a pivot rank can exceed n on a nearly singular giant truss: see
+        // pivot_rank; the count is then a lower bound)
+        n.saturating_sub(rank)
     }
 
     /// Advances the state by exactly `dt` seconds, latching sleeves on the way.
@@ -806,7 +808,11 @@ impl Simulator {
         let ke_after = s.kinetic_energy_j(model);
         s.energy.lock_loss_j += ke_before - ke_after;
         self.state.mechanisms = self.mechanisms_now();
-        if self.all_locked() || self.state.mechanisms == 0 {
+        // Rigid before every sleeve latched: trusted from an exact count only
+        // (SVD, or the pivot rank below RANK_CHECK_MAX_COORDS, equal to it on
+        // the bundled models: tested).
+        let exact = self.model.n_coords() <= RANK_CHECK_MAX_COORDS;
+        if self.all_locked() || (self.state.mechanisms == 0 && exact) {
             self.state.deployed = true;
             self.state.deploy_time_s.get_or_insert(t);
         }
