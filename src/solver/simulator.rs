@@ -243,16 +243,7 @@ impl Core {
                     self.factor(model)?;
                 }
                 factored = false;
-                self.solver.correction(
-                    &self.jac,
-                    &model.inv_mass,
-                    &self.r,
-                    &mut self.dx,
-                    &mut self.mu,
-                );
-                for (x, d) in self.x.iter_mut().zip(&self.dx) {
-                    *x -= d;
-                }
+                self.subtract_correction(model, false);
             }
             if self.violation_m <= 1e3 * tol {
                 return Ok(()); // converged to roundoff of a large structure
@@ -271,6 +262,12 @@ impl Core {
     /// multipliers in `mu` and A V (before) in `r`.
     fn project_velocities(&mut self, model: &Model) {
         self.jac.mul(&self.v, &mut self.r);
+        self.subtract_correction(model, true);
+    }
+
+    /// The mass-orthogonal correction dX = M^-1 A^T S^+ r of r in `r`
+    /// (multipliers into `mu`), subtracted from the velocities or the positions.
+    fn subtract_correction(&mut self, model: &Model, velocities: bool) {
         self.solver.correction(
             &self.jac,
             &model.inv_mass,
@@ -278,8 +275,9 @@ impl Core {
             &mut self.dx,
             &mut self.mu,
         );
-        for (v, d) in self.v.iter_mut().zip(&self.dx) {
-            *v -= d;
+        let target = if velocities { &mut self.v } else { &mut self.x };
+        for (t, d) in target.iter_mut().zip(&self.dx) {
+            *t -= d;
         }
     }
 
