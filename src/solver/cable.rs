@@ -23,7 +23,7 @@ use super::elements::at;
 use super::model::Cable;
 use super::vec3::Vec3;
 
-#[derive(Clone, Debug, Default)]
+#[derive(Debug, Default)]
 pub struct CableEval {
     pub segment_length_m: Vec<f64>,
     pub segment_tension_n: Vec<f64>,
@@ -32,6 +32,28 @@ pub struct CableEval {
     pub sliding_m_s: Vec<f64>,
     /// Sum of segment lengths (m).
     pub length_m: f64,
+}
+
+/// `clone_from` reuses the buffers (the stepping loop copies a cable's state
+/// every step and must not allocate).
+impl Clone for CableEval {
+    fn clone(&self) -> Self {
+        CableEval {
+            segment_length_m: self.segment_length_m.clone(),
+            segment_tension_n: self.segment_tension_n.clone(),
+            wrap_rad: self.wrap_rad.clone(),
+            sliding_m_s: self.sliding_m_s.clone(),
+            length_m: self.length_m,
+        }
+    }
+
+    fn clone_from(&mut self, o: &Self) {
+        self.segment_length_m.clone_from(&o.segment_length_m);
+        self.segment_tension_n.clone_from(&o.segment_tension_n);
+        self.wrap_rad.clone_from(&o.wrap_rad);
+        self.sliding_m_s.clone_from(&o.sliding_m_s);
+        self.length_m = o.length_m;
+    }
 }
 
 impl CableEval {
