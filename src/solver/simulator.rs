@@ -226,7 +226,11 @@ impl Core {
                 if self.violation_m <= tol {
                     return Ok(());
                 }
-                if !min_norm && self.violation_m > 0.25 * last && self.solver.set_min_norm(true) {
+                if !min_norm
+                    && self.violation_m > 0.25 * last
+                    && !self.solver.is_min_norm()
+                    && self.solver.set_min_norm(true)
+                {
                     min_norm = true;
                     factored = false;
                     if self.violation_m > last {
@@ -363,7 +367,11 @@ impl Core {
                 0
             };
             best_change = best_change.min(change);
-            if (stalls >= 4 || no_progress >= 4) && !min_norm && self.solver.set_min_norm(true) {
+            if (stalls >= 4 || no_progress >= 4)
+                && !min_norm
+                && !self.solver.is_min_norm()
+                && self.solver.set_min_norm(true)
+            {
                 // Basic solves (redundant rows dropped) make a less contractive
                 // map than least-squares ones where the iterates leave the
                 // manifold; retry the step with the latter first.
@@ -576,7 +584,13 @@ impl Simulator {
                     self.accept(h);
                 }
                 Some(target) => {
-                    let h_star = self.locate_latch(target, h)?;
+                    // The trial steps of the root search all lie just short of
+                    // a latch, typically the flat deployed state where redundant
+                    // rows are only nearly redundant: least-squares solves there.
+                    let _ = self.core.solver.set_min_norm(true);
+                    let located = self.locate_latch(target, h);
+                    let _ = self.core.solver.set_min_norm(false);
+                    let h_star = located?;
                     self.accept(h_star);
                     events += self.latch()?;
                 }

@@ -53,6 +53,10 @@ pub trait ConstraintSolver: Send {
     fn set_min_norm(&mut self, _on: bool) -> bool {
         false
     }
+    /// Whether minimum-norm mode is on (always false where it makes no difference).
+    fn is_min_norm(&self) -> bool {
+        false
+    }
     /// Rank of A by pivot rejection (redundant rows found by a factorization),
     /// at the last basic factorization: far cheaper than an SVD and equal to it
     /// on well-conditioned trusses, but on a nearly singular one (a 360-sided

@@ -133,6 +133,9 @@ struct Slot {
     worst_iterations: usize,
 }
 
+/// Numeric factorizations between re-probes that find nothing new.
+const REPROBE_INTERVAL: u64 = 100;
+
 /// Slots 0 and 1 hold basic factorizations, this one the minimum-norm one.
 const REGULARIZED_SLOT: usize = 2;
 
@@ -199,6 +202,11 @@ pub struct SparseSchur {
     pub total_iterations: usize,
     /// Probes for the redundant rows after the first of a locked set (rank changes).
     pub reprobes: u64,
+    /// The next factorization probes again (a basic solve was inconsistent).
+    reprobe: bool,
+    /// No re-probe before this many numeric factorizations (one that found the
+    /// same rows means the rhs, not the rank, is inconsistent there).
+    next_reprobe: u64,
     /// Solves whose right-hand side had a component along null(S) (diagnostics).
     pub inconsistent_solves: u64,
 }
@@ -278,6 +286,7 @@ impl SparseSchur {
             };
         }
         self.slots[REGULARIZED_SLOT].l_vals = vec![0.0; self.full.len_val];
+        (self.reprobe, self.next_reprobe) = (false, 0);
         self.rank = None;
         Ok(())
     }
@@ -295,6 +304,13 @@ impl SparseSchur {
             kept_mask[r] = false;
         }
         let kept: Vec<usize> = (0..m).filter(|&i| kept_mask[i]).collect();
+        if self.reduced.as_ref().is_some_and(|r| r.rows == kept) {
+            // Same rows: the rank did not change, the rhs is inconsistent.
+            // Keep the pattern and its symbolic analysis; re-probe again only
+            // after REPROBE_INTERVAL more numeric factorizations.
+            self.next_reprobe = self.numeric_factorizations + REPROBE_INTERVAL;
+            return Ok(());
+        }
         let reduced = Pattern::new(jac, &kept)?;
         for slot in &mut self.slots[..REGULARIZED_SLOT] {
             slot.l_vals = vec![0.0; reduced.len_val];
@@ -312,7 +328,8 @@ impl SparseSchur {
         self.factored = false;
         self.active = k;
         let kind = self.slots[k].kind;
-        if kind == SlotKind::Rejecting && self.reduced.is_none() {
+        if kind == SlotKind::Rejecting && (self.reduced.is_none() || self.reprobe) {
+            self.reprobe = false;
             self.probe(jac, inv_mass)?;
         }
         let slot = &mut self.slots[k];
@@ -547,8 +564,8 @@ impl SparseSchur {
                 self.total_iterations += self.last_iterations;
             }
         }
-        if rel_res > tol && !projected {
-            self.reduced = None;
+        if rel_res > tol && !projected && self.numeric_factorizations >= self.next_reprobe {
+            self.reprobe = true;
             self.reprobes += 1;
             if self.refactor(jac, inv_mass, self.active).is_ok() {
                 self.res.copy_from_slice(&self.rhs_keep);
@@ -903,6 +920,10 @@ impl ConstraintSolver for SparseSchur {
     fn set_min_norm(&mut self, on: bool) -> bool {
         self.min_norm = on;
         true
+    }
+
+    fn is_min_norm(&self) -> bool {
+        self.min_norm
     }
 
     fn accelerations(
