@@ -1,6 +1,6 @@
-//! Sparse backend: a sparse LDL^T factorization (faer) of the mass-weighted
-//! constraint operator S = A M^-1 A^T, regularized as S + delta I, with iterated
-//! preconditioned conjugate gradients towards the minimum-norm solution S^+ r.
+//! Sparse backend: sparse LDL^T factorizations (faer, simplicial, AMD order)
+//! of the mass-weighted constraint operator S = A M^-1 A^T, each used as the
+//! preconditioner of conjugate gradients on the exact operator.
 //!
 //! Pattern. S couples two rows exactly when their elements share a joint, so its
 //! pattern follows from the Jacobian's block structure alone. It is built, with a
@@ -10,47 +10,49 @@
 //! redone then. Every factor() only refills the values and runs the numeric
 //! LDL^T; no solve allocates (all work buffers and faer's scratch are kept).
 //!
-//! Redundant rows. States of self-stress make S singular. Two factorizations
-//! of S serve two kinds of solve:
+//! Redundant rows. States of self-stress make S singular. Two kinds of solve:
 //!
-//! - Basic (the stepping loop). The Jacobi-scaled S~ = D^-1/2 S D^-1/2 (unit
-//!   diagonal) is factored with pivot rejection: a pivot below `REJECT_TOL` is
-//!   the squared sine of the angle between a row and the span of the rows
-//!   before it, i.e. the row is redundant, and its pivot is replaced by
-//!   `REJECT_DELTA`, which removes the row (its multiplier comes out 0, its
-//!   coupling to later rows vanishes). The kept rows span the row space of A,
-//!   so the factorization is an exact solver of the consistent reduced system:
-//!   the motion g = M^-1 A^T lambda is exact, lambda is one of the many
-//!   multiplier sets that produce it (the redundant rows chosen by the
-//!   elimination order carry none). Once factored, it preconditions conjugate
-//!   gradients on the kept rows with S applied exactly, for as long as the
-//!   configuration stays near (a stale factorization costs an iteration or
-//!   two). The full residual (all rows) is checked after every solve; a rank
-//!   change (a rejected row no longer redundant) shows there and refactors.
-//! - Minimum-norm (`set_min_norm(true)`: latch impulses, and every solve whose
-//!   right-hand side turns out inconsistent). With
-//!   delta = `REG_REL` * max diag(S) the regularized matrix R = S + delta I is
-//!   positive definite and its LDL^T is used as the preconditioner of conjugate
-//!   gradients on S lambda = r, with S applied exactly as A M^-1 A^T. The
+//! - Basic (the stepping loop). Once per locked set a probe factors the
+//!   Jacobi-scaled S~ = D^-1/2 S D^-1/2 (unit diagonal) of every row with pivot
+//!   rejection: a pivot below `REJECT_TOL` is the squared sine of the angle
+//!   between a row and the span of the rows before it, i.e. the row is
+//!   redundant, and its pivot is replaced by `REJECT_DELTA`, which removes the
+//!   row. The pattern of S over the kept rows (a basis of A's row space) is then
+//!   built, and from there on only that smaller, nonsingular matrix is factored
+//!   (still with rejection, against a rank drop). The solve is exact for a
+//!   consistent rhs: the motion g = M^-1 A^T lambda is the dense one, lambda one
+//!   of the many multiplier sets that produce it (the rejected rows carry none).
+//!   A factorization is reused while no Jacobian entry has moved by more than
+//!   `BASIC_REUSE_TOL` (relative), also for a mass matrix proportional to the
+//!   one it was made with (CG is blind to a scalar factor in S); a reuse that
+//!   makes CG slow is refreshed. The full residual (all rows) is checked after
+//!   every acceleration solve: beyond `BASIC_INCONSISTENT` the rows are probed
+//!   again (a rank change), and if the probe finds the same rows the rhs itself
+//!   is inconsistent and the least-squares answer below is returned. Position
+//!   corrections are exempt (Phi is inconsistent at second order by nature and
+//!   Newton on the kept rows converges on all of them).
+//! - Minimum-norm (`set_min_norm(true)`: latch impulses and the latch search,
+//!   stalled Newmark iterations and projections, inconsistent right-hand
+//!   sides). With delta = `REG_REL` * max diag(S) the regularized matrix
+//!   R = S + delta I over every row is positive definite and its LDL^T is used
+//!   as the preconditioner of conjugate gradients on S lambda = r. The
 //!   preconditioner is P = R^-1 S R^-1 (two triangular-solve pairs): it is zero
 //!   on null(S), so the iterates stay in range(S) and converge to the
 //!   minimum-norm multipliers S^+ r (the dense SVD's), and the preconditioned
 //!   spectrum (s / (s + delta))^2 is 1 to ~1e-8 except for the few directions
 //!   with s near delta (long flat masts), which CG resolves in a few more steps.
-//!   A right-hand side with a component along null(S) (inconsistent; not
-//!   produced by the simulator, whose right-hand sides are consistent to
-//!   roundoff) makes CG stall on roundoff; that is detected by the true
-//!   residual, and g is then computed by the projected Richardson iteration (no
-//!   data-dependent step length) and lambda = S^+ (A g) by CG again: the
-//!   least-squares answer of the dense SVD.
+//!   A right-hand side with a component along null(S) makes CG stall on
+//!   roundoff; that is detected by the true residual, and g is then computed by
+//!   the projected Richardson iteration (no data-dependent step length) and
+//!   lambda = S^+ (A g) by CG again: the least-squares answer of the dense SVD.
 //!
 //! Convergence is measured on g = M^-1 A^T lambda (the motion).
 //!
 //! Accuracy: g (accelerations, corrections, A^T lambda) to roundoff of the
 //! dense result; in minimum-norm solves the split of lambda among redundant
 //! rows to about eps / REG_REL ~ 1e-7 relative, the roundoff of a solve with R
-//! along null(S). `rank()` is the number of kept rows of the last basic
-//! factorization.
+//! along null(S). `pivot_rank()` is the number of kept rows less those the last
+//! basic factorization rejected.
 
 use super::ConstraintSolver;
 use crate::solver::jacobian::Jacobian;
