@@ -607,6 +607,9 @@ fn proportional(a: &[f64], b: &[f64]) -> bool {
     let (Some(&a0), Some(&b0)) = (a.first(), b.first()) else {
         return a.len() == b.len();
     };
+    if !(a0 > 0.0 && b0 > 0.0 && a0.is_finite() && b0.is_finite()) {
+        return a == b; // (masses are positive; anything else: only equal ones)
+    }
     a.len() == b.len()
         && a.iter()
             .zip(b)
