@@ -268,9 +268,31 @@ impl Core {
 
     /// V <- V - M^-1 A^T S^+ A V (needs a current factorization at x). Returns the
     /// multipliers in `mu` and A V (before) in `r`.
-    fn project_velocities(&mut self, model: &Model) {
+    fn project_velocities(&mut self, model: &Model) -> Result<(), SolverError> {
         self.jac.mul(&self.v, &mut self.r);
         self.subtract_correction(model, true);
+        // A V is consistent by construction, so what is left of it is roundoff,
+        // unless the rows a basic solve dropped are only nearly redundant here
+        // (near the flat deployed state): then redo it with least squares.
+        // (`c` is scratch until the accelerations that follow recompute it.)
+        if self.solver.is_min_norm() {
+            return Ok(());
+        }
+        self.jac.mul(&self.v, &mut self.c);
+        let after = self.c.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let vmax = self.v.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let amax = self.jac.values.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        if after <= 1e-13 * amax * vmax || !self.solver.set_min_norm(true) {
+            return Ok(());
+        }
+        for (v, d) in self.v.iter_mut().zip(&self.dx) {
+            *v += d;
+        }
+        let redone = self
+            .factor(model)
+            .map(|()| self.subtract_correction(model, true));
+        self.solver.set_min_norm(false);
+        redone
     }
 
     /// The mass-orthogonal correction dX = M^-1 A^T S^+ r of r in `r`
@@ -410,7 +432,7 @@ impl Core {
         }
         self.project_positions(model, opts.projection_tol_m, false)?;
         self.factor(model)?;
-        self.project_velocities(model);
+        self.project_velocities(model)?;
         self.accelerations(model, cmd, false)
     }
 }
@@ -795,7 +817,7 @@ impl Simulator {
         let settled = (|| {
             core.project_positions(model, self.opts.projection_tol_m, false)?;
             core.factor(model)?;
-            core.project_velocities(model); // r = A v before, mu = impulses
+            core.project_velocities(model)?; // r = A v before, mu = impulses
             core.a_guess.copy_from_slice(&self.state.a);
             core.accelerations(model, &self.state.cable_tension_cmd_n, false)
         })();
@@ -832,11 +854,14 @@ impl Simulator {
         let ke_after = s.kinetic_energy_j(model);
         s.energy.lock_loss_j += ke_before - ke_after;
         self.state.mechanisms = self.mechanisms_now();
-        // Rigid before every sleeve latched: trusted from an exact count only
-        // (SVD, or the pivot rank below RANK_CHECK_MAX_COORDS, equal to it on
-        // the bundled models: tested).
-        let exact = self.model.n_coords() <= RANK_CHECK_MAX_COORDS;
-        if self.all_locked() || (self.state.mechanisms == 0 && exact) {
+        // Rigid before every sleeve latched: trusted from an SVD only (the
+        // dense solver's, or one confirming a pivot rank; not past
+        // RANK_CHECK_MAX_COORDS).
+        let rigid = self.state.mechanisms == 0
+            && self.model.n_coords() <= RANK_CHECK_MAX_COORDS
+            && (self.core.solver.rank().is_some()
+                || super::mobility::rank(&self.core.jac) == self.model.n_coords());
+        if self.all_locked() || rigid {
             self.state.deployed = true;
             self.state.deploy_time_s.get_or_insert(t);
         }

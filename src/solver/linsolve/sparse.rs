@@ -169,6 +169,8 @@ pub struct SparseSchur {
     reduced: Option<Pattern>,
     /// Scratch for the probe's factorization (len of the full L).
     probe_l: Vec<f64>,
+    probe_scale: Vec<f64>,
+    probe_kept: Vec<bool>,
     /// Gather buffer on the kept rows.
     xr: Vec<f64>,
     // Numeric factorizations kept for reuse: two basic ones (one per mass
@@ -263,6 +265,8 @@ impl SparseSchur {
         self.full = Pattern::new(jac, &all)?;
         self.reduced = None;
         self.probe_l = vec![0.0; self.full.len_val];
+        self.probe_scale = vec![0.0; m];
+        self.probe_kept = vec![true; m];
         for b in [
             &mut self.res,
             &mut self.dl,
@@ -288,6 +292,10 @@ impl SparseSchur {
             };
         }
         self.slots[REGULARIZED_SLOT].l_vals = vec![0.0; self.full.len_val];
+        for slot in &mut self.slots {
+            slot.inv_mass = Vec::with_capacity(n);
+            slot.jac_values = Vec::with_capacity(jac.values.len());
+        }
         (self.reprobe, self.next_reprobe) = (false, 0);
         self.rank = None;
         Ok(())
@@ -298,21 +306,25 @@ impl SparseSchur {
     fn probe(&mut self, jac: &Jacobian, inv_mass: &[f64]) -> Result<(), SolverError> {
         let m = self.sig_rows;
         self.full.fill(jac, inv_mass)?;
-        let mut scale = vec![0.0; m];
-        self.full.scale_to_unit_diagonal(&mut scale);
+        self.full.scale_to_unit_diagonal(&mut self.probe_scale);
         self.full.factor(&mut self.probe_l, rejecting())?;
-        let mut kept_mask = vec![true; m];
+        self.probe_kept.fill(true);
         for r in self.full.rejected_rows(&self.probe_l) {
-            kept_mask[r] = false;
+            self.probe_kept[r] = false;
         }
-        let kept: Vec<usize> = (0..m).filter(|&i| kept_mask[i]).collect();
-        if self.reduced.as_ref().is_some_and(|r| r.rows == kept) {
+        let kept_mask = &self.probe_kept;
+        let same = self.reduced.as_ref().is_some_and(|r| {
+            r.rows.len() == kept_mask.iter().filter(|&&k| k).count()
+                && r.rows.iter().all(|&i| kept_mask[i])
+        });
+        if same {
             // Same rows: the rank did not change, the rhs is inconsistent.
             // Keep the pattern and its symbolic analysis; re-probe again only
             // after REPROBE_INTERVAL more numeric factorizations.
             self.next_reprobe = self.numeric_factorizations + REPROBE_INTERVAL;
             return Ok(());
         }
+        let kept: Vec<usize> = (0..m).filter(|&i| kept_mask[i]).collect();
         let reduced = Pattern::new(jac, &kept)?;
         for slot in &mut self.slots[..REGULARIZED_SLOT] {
             slot.l_vals = vec![0.0; reduced.len_val];
@@ -575,6 +587,8 @@ impl SparseSchur {
                 self.total_iterations += self.last_iterations;
             }
         }
+        let slot = &mut self.slots[self.active];
+        slot.worst_iterations = slot.worst_iterations.max(self.last_iterations);
         if rel_res <= tol {
             return;
         }
@@ -866,6 +880,11 @@ impl ConstraintSolver for SparseSchur {
     fn factor(&mut self, jac: &Jacobian, inv_mass: &[f64]) -> Result<(), SolverError> {
         if !self.same_structure(jac) {
             self.setup(jac)?;
+        } else if jac.structure_id != self.sig_id {
+            // The same structure under a new name (a reset): keep the analysis,
+            // but let the next inconsistency probe again at once.
+            self.sig_id = jac.structure_id;
+            self.next_reprobe = 0;
         }
         // (the sum is NaN or infinite exactly when an entry is)
         if !jac.values.iter().map(|x| x * 0.0).sum::<f64>().is_finite() {
