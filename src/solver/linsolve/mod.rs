@@ -53,6 +53,11 @@ pub trait ConstraintSolver: Send {
     fn set_min_norm(&mut self, _on: bool) -> bool {
         false
     }
+    /// The rows a basic solve keeps (the others are taken as redundant), where
+    /// the backend drops any.
+    fn kept_rows(&self) -> Option<&[usize]> {
+        None
+    }
     /// Whether minimum-norm mode is on (always false where it makes no difference).
     fn is_min_norm(&self) -> bool {
         false

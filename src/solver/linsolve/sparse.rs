@@ -950,6 +950,10 @@ impl ConstraintSolver for SparseSchur {
         self.min_norm
     }
 
+    fn kept_rows(&self) -> Option<&[usize]> {
+        self.reduced.as_ref().map(|r| r.rows.as_slice())
+    }
+
     fn accelerations(
         &mut self,
         jac: &Jacobian,
