@@ -123,15 +123,20 @@ def load(out, label):
     return json.loads(f.read_text()) if f.exists() else None
 
 
-def series(out):
-    """{name: [(joints, us_per_step, label)]} for the four series."""
-    s = {"sparse, rings": [], "sparse, masts": [], "dense, rings": [], "dense, masts": []}
-    for label, model, solver, steps in BENCHES:
+def scaling_runs(out):
+    """(label, model, solver, bench JSON) of the generated-model runs that have a result."""
+    for label, model, solver, _steps in BENCHES:
         if model.startswith("models/") or label.startswith("done_"):
             continue
         j = load(out, label)
-        if j is None:
-            continue
+        if j is not None:
+            yield label, model, solver, j
+
+
+def series(out):
+    """{name: [(joints, us_per_step, label)]} for the four series."""
+    s = {"sparse, rings": [], "sparse, masts": [], "dense, rings": [], "dense, masts": []}
+    for label, model, solver, j in scaling_runs(out):
         kind = "rings" if model.startswith("r") else "masts"
         s[f"{solver}, {kind}"].append((joints_of(Path(out) / model), j["us_per_step"], label))
     for v in s.values():
@@ -254,12 +259,7 @@ def cmd_plot(a):
     print("\n| model | joints | solver | steps | µs/step (median) | ratio | load before |")
     print("|---|---|---|---|---|---|---|")
     base = {}
-    for label, model, solver, steps in BENCHES:
-        if model.startswith("models/") or label.startswith("done_"):
-            continue
-        j = load(out, label)
-        if j is None:
-            continue
+    for label, model, solver, j in scaling_runs(out):
         kind = "r" if model.startswith("r") else "m"
         base.setdefault((kind, solver), j["us_per_step"])
         la = runs.get(label, {}).get("load1_before", float("nan"))

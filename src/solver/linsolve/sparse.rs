@@ -124,8 +124,6 @@ struct Slot {
     delta: f64,
     /// D^-1/2 (1 / sqrt(S_ii), 0 for an empty row) for a Rejecting slot.
     scale: Vec<f64>,
-    /// Rows rejected as redundant (Rejecting slot).
-    rejected: usize,
     inv_mass: Vec<f64>,
     /// The Jacobian values it was made at (basic slots).
     jac_values: Vec<f64>,
@@ -183,7 +181,6 @@ pub struct SparseSchur {
     /// Rank of A found by the last basic factorization made fresh at the
     /// configuration of a factor() call.
     rank: Option<usize>,
-    factored: bool,
     /// Numeric factorizations done, and factor() calls served by a kept one.
     pub numeric_factorizations: u64,
     pub reused_factorizations: u64,
@@ -259,7 +256,6 @@ impl SparseSchur {
             .flat_map(|b| b.cols.iter().copied())
             .collect();
         self.ready = true;
-        self.factored = false;
 
         let all: Vec<usize> = (0..m).collect();
         self.full = Pattern::new(jac, &all)?;
@@ -307,7 +303,7 @@ impl SparseSchur {
         let m = self.sig_rows;
         self.full.fill(jac, inv_mass)?;
         self.full.scale_to_unit_diagonal(&mut self.probe_scale);
-        self.full.factor(&mut self.probe_l, rejecting())?;
+        self.full.factor(&mut self.probe_l, REJECTING)?;
         self.probe_kept.fill(true);
         for r in self.full.rejected_rows(&self.probe_l) {
             self.probe_kept[r] = false;
@@ -339,7 +335,6 @@ impl SparseSchur {
     /// Numeric factorization at the current Jacobian values into slot k, of the
     /// kind the slot holds (see the module notes).
     fn refactor(&mut self, jac: &Jacobian, inv_mass: &[f64], k: usize) -> Result<(), SolverError> {
-        self.factored = false;
         self.active = k;
         let kind = self.slots[k].kind;
         if kind == SlotKind::Rejecting && (self.reduced.is_none() || self.reprobe) {
@@ -352,11 +347,11 @@ impl SparseSchur {
                 let pat = self.reduced.as_mut().expect("probed");
                 pat.fill(jac, inv_mass)?;
                 pat.scale_to_unit_diagonal(&mut slot.scale);
-                pat.factor(&mut slot.l_vals, rejecting())?;
+                pat.factor(&mut slot.l_vals, REJECTING)?;
                 // Rows the probe kept are independent; a rejection here means
                 // the rank dropped since (a singular configuration).
-                slot.rejected = pat.rejected_rows(&slot.l_vals).count();
-                self.rank = Some(pat.rows.len() - slot.rejected);
+                let rejected = pat.rejected_rows(&slot.l_vals).count();
+                self.rank = Some(pat.rows.len() - rejected);
             }
             SlotKind::Regularized => {
                 let pat = &mut self.full;
@@ -380,7 +375,6 @@ impl SparseSchur {
         slot.age = 0;
         slot.worst_iterations = 0;
         self.numeric_factorizations += 1;
-        self.factored = true;
         Ok(())
     }
 
@@ -542,7 +536,7 @@ impl SparseSchur {
 
     /// Solves S lambda = rhs (rhs in `self.res`): g and lambda on return,
     /// lambda minimum-norm when the active slot is the regularized one.
-    fn solve_min_norm(&mut self, jac: &Jacobian, inv_mass: &[f64], may_be_inconsistent: bool) {
+    fn solve(&mut self, jac: &Jacobian, inv_mass: &[f64], may_be_inconsistent: bool) {
         self.rhs_keep.copy_from_slice(&self.res);
         let projected = self.slots[self.active].kind == SlotKind::Regularized;
         let mut rel_res = self.pcg(jac, inv_mass, projected);
@@ -632,9 +626,7 @@ fn proportional(a: &[f64], b: &[f64]) -> bool {
 
 /// Dynamic regularization (delta, epsilon) that rejects redundant rows of a
 /// unit-diagonal S: a pivot below `REJECT_TOL` becomes `REJECT_DELTA`.
-fn rejecting() -> (f64, f64) {
-    (REJECT_DELTA, REJECT_TOL)
-}
+const REJECTING: (f64, f64) = (REJECT_DELTA, REJECT_TOL);
 
 /// The upper triangle of S = A M^-1 A^T over a subset of the rows (CSC, sorted
 /// rows), the flat list of products that refills it, and its symbolic LDL^T.
@@ -671,7 +663,7 @@ impl Pattern {
             }
         }
         // Every pair of rows (i <= j, both kept) of elements sharing a joint.
-        let pairs = |f: &mut dyn FnMut(usize, usize, usize, usize, usize, usize, usize)| {
+        let pairs = |f: &mut dyn FnMut(usize, usize, usize, usize, usize)| {
             for (joint, list) in inc.iter().enumerate() {
                 for &(b1, jj1) in list {
                     for &(b2, jj2) in list {
@@ -693,8 +685,6 @@ impl Pattern {
                                     p.offset + r1 * w1 + 3 * jj1,
                                     q.offset + r2 * w2 + 3 * jj2,
                                     3 * joint,
-                                    0,
-                                    0,
                                 );
                             }
                         }
@@ -703,7 +693,7 @@ impl Pattern {
             }
         };
         let mut cols: Vec<Vec<usize>> = (0..mr).map(|i| vec![i]).collect();
-        pairs(&mut |i, j, _, _, _, _, _| cols[j].push(i));
+        pairs(&mut |i, j, _, _, _| cols[j].push(i));
         let mut pat = Pattern {
             rows: rows.to_vec(),
             col_ptr: vec![0],
@@ -729,7 +719,7 @@ impl Pattern {
         };
         pat.diag_pos = (0..mr).map(|i| pos(i, i)).collect();
         let mut contrib = Vec::new();
-        pairs(&mut |i, j, o1, o2, c0, _, _| {
+        pairs(&mut |i, j, o1, o2, c0| {
             contrib.push(Contrib {
                 s: pos(i, j) as u32,
                 o1: o1 as u32,
@@ -924,7 +914,6 @@ impl ConstraintSolver for SparseSchur {
             };
             if slot.worst_iterations <= REUSE_MAX_ITERATIONS && near {
                 self.active = k;
-                self.factored = true;
                 self.reused_factorizations += 1;
                 return Ok(());
             }
@@ -975,7 +964,7 @@ impl ConstraintSolver for SparseSchur {
         for (i, r) in self.res.iter_mut().enumerate() {
             *r = -c.get(i).copied().unwrap_or(0.0) - *r;
         }
-        self.solve_min_norm(jac, inv_mass, false);
+        self.solve(jac, inv_mass, false);
         for i in 0..n {
             a[i] += self.g[i];
         }
@@ -997,7 +986,7 @@ impl ConstraintSolver for SparseSchur {
             return;
         }
         self.res.copy_from_slice(&r[..jac.nrows]);
-        self.solve_min_norm(jac, inv_mass, true);
+        self.solve(jac, inv_mass, true);
         dx.copy_from_slice(&self.g[..dx.len()]);
         let k = mu.len().min(self.lam.len());
         mu[..k].copy_from_slice(&self.lam[..k]);
