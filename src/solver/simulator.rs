@@ -389,7 +389,17 @@ impl Core {
                 scale = scale.max(self.a[i].abs());
             }
             self.a_guess.copy_from_slice(&self.a);
-            if change <= 1e-12 * scale || 0.25 * change * h * h <= 1e-14 {
+            // Error of this iterate: |a_k - a*| <= rho / (1 - rho) |a_k - a_{k-1}|
+            // for a contraction of rate rho, estimated from the last two changes
+            // once it contracts well (before that, the change itself).
+            // (rho is 0 after the first iterate, whose last change is infinite)
+            let rho = change / last_change;
+            let error = if rho > 0.0 && rho < 0.1 {
+                rho / (1.0 - rho) * change
+            } else {
+                change
+            };
+            if error <= 1e-12 * scale || 0.25 * error * h * h <= 1e-14 {
                 converged = true;
                 break;
             }
