@@ -608,6 +608,43 @@ impl SparseSchur {
     }
 }
 
+/// Lanes of the reductions below: independent accumulators let them vectorize
+/// (a single running max or sum is a chain of dependent instructions; these
+/// run several times per step over every Jacobian entry).
+const LANES: usize = 8;
+
+/// Whether every entry is finite (a NaN or an infinity makes x * 0 NaN).
+fn all_finite(x: &[f64]) -> bool {
+    let mut acc = [0.0f64; LANES];
+    let chunks = x.chunks_exact(LANES);
+    let tail = chunks.remainder();
+    for c in chunks {
+        for k in 0..LANES {
+            acc[k] += c[k] * 0.0;
+        }
+    }
+    acc.iter().chain(tail).all(|v| (v * 0.0) == 0.0)
+}
+
+/// (max |a - b|, max |a|) over equal-length slices.
+fn max_abs_diff(a: &[f64], b: &[f64]) -> (f64, f64) {
+    let (mut d, mut m) = ([0.0f64; LANES], [0.0f64; LANES]);
+    let n = a.len().min(b.len()) / LANES * LANES;
+    for (ca, cb) in a[..n].chunks_exact(LANES).zip(b[..n].chunks_exact(LANES)) {
+        for k in 0..LANES {
+            d[k] = d[k].max((ca[k] - cb[k]).abs());
+            m[k] = m[k].max(ca[k].abs());
+        }
+    }
+    let mut dmax = d.iter().fold(0.0f64, |x, &y| x.max(y));
+    let mut amax = m.iter().fold(0.0f64, |x, &y| x.max(y));
+    for (x, y) in a[n..].iter().zip(&b[n..]) {
+        dmax = dmax.max((x - y).abs());
+        amax = amax.max(x.abs());
+    }
+    (dmax, amax)
+}
+
 /// Whether two inverse mass matrices differ by a scalar factor only (M and
 /// M + h/2 C with uniform masses and damping): S then differs by that factor,
 /// to which preconditioned CG is blind, so one factorization serves both.
@@ -877,7 +914,7 @@ impl ConstraintSolver for SparseSchur {
             self.next_reprobe = 0;
         }
         // (the sum is NaN or infinite exactly when an entry is)
-        if !jac.values.iter().map(|x| x * 0.0).sum::<f64>().is_finite() {
+        if !all_finite(&jac.values) {
             return Err(SolverError::NonFinite("constraint Jacobian".into()));
         }
         // Reuse a kept factorization of the wanted kind for this mass matrix
@@ -903,11 +940,7 @@ impl ConstraintSolver for SparseSchur {
             // A basic factorization is reused while A has moved little since.
             let near = match slot.kind {
                 SlotKind::Rejecting => {
-                    let (mut dmax, mut amax) = (0.0f64, 0.0f64);
-                    for (a, b) in jac.values.iter().zip(&slot.jac_values) {
-                        dmax = dmax.max((a - b).abs());
-                        amax = amax.max(a.abs());
-                    }
+                    let (dmax, amax) = max_abs_diff(&jac.values, &slot.jac_values);
                     dmax <= BASIC_REUSE_TOL * amax
                 }
                 SlotKind::Regularized => slot.age <= MAX_AGE,
