@@ -482,3 +482,154 @@ fn damped_latch_time_converges_at_second_order() {
         );
     }
 }
+
+/// A fixed at the origin, B on the x axis at 1 m pulled toward A by a cable of
+/// tension F against gravity g along +x, with a sleeve A-B latching at `lock` m.
+fn tug_against_gravity_model(m_b: f64, f: f64, g: f64, lock: f64) -> String {
+    format!(
+        r#"
+[model]
+name = "tug"
+[settings]
+gravity_m_s2 = [{g}, 0.0, 0.0]
+[[joint]]
+name = "A"
+position_m = [0.0, 0.0, 0.0]
+mass_kg = 1.0
+[[joint]]
+name = "B"
+position_m = [1.0, 0.0, 0.0]
+mass_kg = {m_b}
+[[element]]
+type = "support"
+name = "A_fixed"
+joints = ["A"]
+fix = "xyz"
+[[element]]
+type = "support"
+name = "B_yz"
+joints = ["B"]
+fix = "yz"
+[[element]]
+type = "sleeve"
+name = "latch"
+joints = ["A", "B"]
+lock_length_m = {lock}
+[[cable]]
+name = "pull"
+path = ["A", "B"]
+tension_n = {f}
+max_tension_n = {f}
+"#
+    )
+}
+
+/// A sleeve that reaches its design length and would turn back inside one
+/// step latches all the same, at the closed-form time. B is pulled toward A
+/// (acceleration -(F - m g)/m) until the cable is released at T; gravity then
+/// turns B back at its closest approach x_min = x_T - v_T^2 / (2 g). With the
+/// lock length x_min + delta the gap closes to zero at
+/// t* = T - v_T / g - sqrt(2 delta / g) and would open again sqrt(8 delta / g)
+/// later: with dt 0.25 s and 0.5 s both crossings lie inside one step (the
+/// ends of that step are on the same side), with dt 0.05 s they do not.
+/// Piecewise-constant accelerations are integrated exactly, so t*, the
+/// impulse m sqrt(2 g delta) and the energy lost g m delta hold to roundoff.
+#[test]
+fn a_sleeve_that_touches_its_length_inside_a_step_latches_at_the_closed_form_time() {
+    let (m_b, f, g, t_release, delta): (f64, f64, f64, f64, f64) = (0.7, 2.0, 1.0, 0.5, 1e-3);
+    let a1 = -(f - m_b * g) / m_b;
+    let (x_t, v_t) = (1.0 + 0.5 * a1 * t_release * t_release, a1 * t_release);
+    let x_min = x_t - v_t * v_t / (2.0 * g);
+    let lock = x_min + delta;
+    let t_star = t_release - v_t / g - (2.0 * delta / g).sqrt();
+    let u = (2.0 * g * delta).sqrt(); // closing speed at the latch
+    for dt in [0.5, 0.25, 0.05] {
+        let model = parse(&tug_against_gravity_model(m_b, f, g, lock), "tug.toml")
+            .unwrap()
+            .model;
+        let mut sim = Simulator::new(model, Options::default()).unwrap();
+        let mut released = false;
+        let mut latch_step_ends_open = false;
+        while sim.state().locks.is_empty() {
+            assert!(sim.state().t_s < 3.0, "dt {dt}: no latch by t = 3 s");
+            if !released && sim.state().t_s >= t_release - 1e-12 {
+                sim.set_cable_tension(0, 0.0).unwrap();
+                released = true;
+            }
+            let t0 = sim.state().t_s;
+            sim.step(dt).unwrap();
+            // Does the step that latched end open in the closed-form motion
+            // (gap > 0 at both its ends: the touch-and-turn case)?
+            let t1 = t0 + dt;
+            let x_end = x_t + v_t * (t1 - t_release) + 0.5 * g * (t1 - t_release).powi(2);
+            latch_step_ends_open = x_end > lock && t0 > t_release;
+        }
+        assert_eq!(
+            latch_step_ends_open,
+            dt >= 0.25,
+            "dt {dt}: the scenario does not put both crossings in one step"
+        );
+        let ev = &sim.state().locks[0];
+        assert!(
+            (ev.time_s - t_star).abs() <= 1e-9,
+            "dt {dt}: latch at {} s vs {t_star} s",
+            ev.time_s
+        );
+        assert!(
+            (ev.impulse_ns - m_b * u).abs() <= 1e-6 * m_b * u,
+            "dt {dt}: impulse {} vs {}",
+            ev.impulse_ns,
+            m_b * u
+        );
+        assert!(
+            (ev.energy_lost_j - 0.5 * m_b * u * u).abs() <= 1e-6 * 0.5 * m_b * u * u,
+            "dt {dt}: energy lost {} vs {}",
+            ev.energy_lost_j,
+            0.5 * m_b * u * u
+        );
+        let len = sim.state().x[3];
+        assert!((len - lock).abs() <= 1e-9, "dt {dt}: latched at {len} m");
+    }
+}
+
+/// A command takes effect in full from the step that starts with it: B of the
+/// tug model follows the closed-form piecewise-quadratic motion at every step
+/// end (Newmark integrates constant accelerations exactly) when the cable is
+/// released at t = 0.5 s. Starting that step from the accelerations of the old
+/// command would take the force jump for a ramp over the step, an error of
+/// h^2 / 4 (F / m) = 7e-3 m at its end.
+#[test]
+fn a_cable_command_applies_in_full_from_the_next_step() {
+    let (m_b, f, g, t_release): (f64, f64, f64, f64) = (0.7, 2.0, 1.0, 0.5);
+    let a1 = -(f - m_b * g) / m_b;
+    let (x_t, v_t) = (1.0 + 0.5 * a1 * t_release * t_release, a1 * t_release);
+    let exact = |t: f64| {
+        if t <= t_release {
+            (1.0 + 0.5 * a1 * t * t, a1 * t)
+        } else {
+            let s = t - t_release;
+            (x_t + v_t * s + 0.5 * g * s * s, v_t + g * s)
+        }
+    };
+    let model = parse(&tug_against_gravity_model(m_b, f, g, 0.01), "tug.toml")
+        .unwrap()
+        .model;
+    let mut sim = Simulator::new(model, Options::default()).unwrap();
+    let dt = 0.1;
+    for k in 1..=15 {
+        if k == 6 {
+            sim.set_cable_tension(0, 0.0).unwrap();
+        }
+        sim.step(dt).unwrap();
+        let t = sim.state().t_s;
+        let (x, v) = exact(t);
+        let s = sim.state();
+        assert!(
+            (s.x[3] - x).abs() <= 1e-12 && (s.v[3] - v).abs() <= 1e-12,
+            "t {t}: x {} v {} vs closed form {x} {v}",
+            s.x[3],
+            s.v[3]
+        );
+        assert!(s.locks.is_empty());
+    }
+}

@@ -9,11 +9,17 @@
 //! back onto Phi = 0 and V_{n+1} onto A V = 0 by mass-orthogonal corrections
 //! (Bayo and Ledesma), so no constraint drift accumulates.
 //!
-//! Latches: when a sleeve's gap g = l - L_lock changes sign inside the step, the
-//! step is redone with the length h* at which g(h*) = 0 (root of the step map
-//! itself, seeded by the cubic Hermite interpolant), the sleeve becomes a bar,
-//! and the velocities jump to the new constraint manifold by the mass-orthogonal
-//! projection (an inelastic latch). The rest of the step follows from there.
+//! Latches: when a sleeve's gap g = l - L_lock changes sign inside the step, or
+//! the step's cubic Hermite interpolant shows it touching zero and turning back
+//! (both ends on the same side; confirmed on the step map), the step is redone
+//! with the length h* at which g(h*) = 0 (root of the step map itself, by the
+//! Illinois method), the sleeve becomes a bar, and the velocities jump to the
+//! new constraint manifold by the mass-orthogonal projection (an inelastic
+//! latch). The rest of the step follows from there.
+//!
+//! Cable commands are piecewise constant with jumps at step starts: a step
+//! that starts at a change starts from the accelerations under the new
+//! command.
 
 use super::cable::{self, CableEval};
 use super::jacobian::Jacobian;
@@ -461,6 +467,8 @@ pub struct Simulator {
     state: State,
     core: Core,
     opts: Options,
+    /// A cable command changed since the state's accelerations were computed.
+    command_changed: bool,
 }
 
 fn gap(model: &Model, e: usize, x: &[f64]) -> f64 {
@@ -493,6 +501,7 @@ impl Simulator {
             model,
             core,
             opts,
+            command_changed: false,
         };
         sim.initialize()?;
         Ok(sim)
@@ -533,6 +542,7 @@ impl Simulator {
         self.state = state;
         self.state.mechanisms = self.mechanisms_now();
         self.state.deployed = !self.model.locks.is_empty() && self.all_locked();
+        self.command_changed = false;
         Ok(())
     }
 
@@ -574,7 +584,34 @@ impl Simulator {
                 c.name, c.max_tension_n
             )));
         }
-        self.state.cable_tension_cmd_n[cable] = tension_n;
+        if self.state.cable_tension_cmd_n[cable] != tension_n {
+            self.state.cable_tension_cmd_n[cable] = tension_n;
+            self.command_changed = true;
+        }
+        Ok(())
+    }
+
+    /// Accelerations (and multipliers, cable tensions) of the state under the
+    /// current commands. The tension is piecewise constant in time with its
+    /// jumps at step starts, so a step that starts at a command change must
+    /// start from A(t_n+) under the new command; Newmark from the old A_n
+    /// would apply half the change over that step (the average-acceleration
+    /// rule takes a force jump for a ramp).
+    fn restart_accelerations(&mut self) -> Result<(), SolverError> {
+        let (model, core) = (&self.model, &mut self.core);
+        core.x.copy_from_slice(&self.state.x);
+        core.v.copy_from_slice(&self.state.v);
+        core.a_guess.copy_from_slice(&self.state.a);
+        core.prev_h = None; // no extrapolation across the jump
+        core.factor(model)?;
+        core.accelerations(model, &self.state.cable_tension_cmd_n, false)?;
+        let s = &mut self.state;
+        s.a.copy_from_slice(&core.a);
+        s.lambda.clone_from(&core.lambda);
+        for (o, n) in s.cables.iter_mut().zip(&core.cables) {
+            o.clone_from(n);
+        }
+        self.command_changed = false;
         Ok(())
     }
 
@@ -608,6 +645,9 @@ impl Simulator {
                 "time step {dt} s must be positive and finite"
             )));
         }
+        if self.command_changed {
+            self.restart_accelerations()?;
+        }
         let t_end = self.state.t_s + dt;
         let mut events = 0;
         let mut guard = 0;
@@ -629,20 +669,32 @@ impl Simulator {
                 }
                 other => other?,
             }
-            match self.first_crossing(h) {
+            match self.first_crossing(h, true) {
                 None => {
                     self.accept(h);
                 }
-                Some(target) => {
+                Some((target, s_hi)) => {
                     // The trial steps of the root search all lie just short of
                     // a latch, typically the flat deployed state where redundant
                     // rows are only nearly redundant: least-squares solves there.
                     let _ = self.core.solver.set_min_norm(true);
-                    let located = self.locate_latch(target, h);
+                    let mut located = self.locate_latch(target, h, s_hi);
+                    if let Ok(None) = located {
+                        // The interpolant's dip was not real (e.g. the ring's
+                        // radial sleeves, whose length is least at the flat
+                        // state the diagonals latch in): sign changes decide.
+                        if let Some((target, _)) = self.first_crossing(h, false) {
+                            located = self.locate_latch(target, h, 1.0);
+                        }
+                    }
                     let _ = self.core.solver.set_min_norm(false);
-                    let h_star = located?;
-                    self.accept(h_star);
-                    events += self.latch()?;
+                    match located? {
+                        Some(h_star) => {
+                            self.accept(h_star);
+                            events += self.latch()?;
+                        }
+                        None => self.accept(h),
+                    }
                 }
             }
             h_try = (2.0 * h_try).min(dt);
@@ -652,20 +704,23 @@ impl Simulator {
         Ok(events)
     }
 
-    /// The unlocked sleeve whose gap changes sign first in the trial step, by the
-    /// Hermite interpolant of the step.
-    fn first_crossing(&self, h: f64) -> Option<usize> {
+    /// The unlocked sleeve whose gap reaches zero first in the trial step, by the
+    /// Hermite interpolant of the step, with the fraction s_hi of the step by
+    /// which it has crossed: 1 when the gap changes sign over the step, less
+    /// when it touches zero and turns back inside the step (both ends on the
+    /// same side; s_hi is then the interpolant's turning point).
+    /// `dips`: whether touches that turn back count (else sign changes only).
+    fn first_crossing(&self, h: f64, dips: bool) -> Option<(usize, f64)> {
         let (s, c) = (&self.state, &self.core);
-        let mut best: Option<(f64, usize)> = None;
+        let mut best: Option<(f64, usize, f64)> = None;
         for &e in &self.model.locks {
             if s.locked[e] {
                 continue;
             }
             let (g0, g1) = (gap(&self.model, e, &s.x), gap(&self.model, e, &c.x));
-            if g0 == 0.0 || g0 * g1 > 0.0 {
+            if g0 == 0.0 || g0.is_nan() || g1.is_nan() {
                 continue;
             }
-            // bisection on the interpolant for the fraction of the step
             let el = &self.model.elements[e];
             let (ja, jb) = (el.joints()[0], el.joints()[1]);
             let (pa0, pb0) = (super::elements::at(&s.x, ja), super::elements::at(&s.x, jb));
@@ -678,7 +733,45 @@ impl Simulator {
                 ((pb[0] - pa[0]).powi(2) + (pb[1] - pa[1]).powi(2) + (pb[2] - pa[2]).powi(2)).sqrt()
                     - lock_len
             };
-            let (mut lo, mut hi) = (0.0, 1.0);
+            let s_hi = if g0 * g1 <= 0.0 {
+                1.0
+            } else if !dips {
+                continue;
+            } else {
+                // Same side at both ends: a touch and turn needs the gap to
+                // close at the start (g0 gdot0 < 0) and open at the end
+                // (g1 gdot1 > 0). Then the interpolant's extremum (golden
+                // section on g0-signed gap, unimodal over one turn) decides.
+                let rate = |x: &[f64], v: &[f64]| el.extension(x, v).map_or(0.0, |(_, r)| r);
+                if !(g0 * rate(&s.x, &s.v) < 0.0 && g1 * rate(&c.x, &c.v) > 0.0) {
+                    continue;
+                }
+                let f = |sf: f64| g0.signum() * g_at(sf);
+                let r = 0.5 * (5f64.sqrt() - 1.0);
+                let (mut lo, mut hi) = (0.0, 1.0);
+                let (mut m1, mut m2) = (hi - r * (hi - lo), lo + r * (hi - lo));
+                let (mut f1, mut f2) = (f(m1), f(m2));
+                for _ in 0..60 {
+                    if f1 < f2 {
+                        hi = m2;
+                        (m2, f2) = (m1, f1);
+                        m1 = hi - r * (hi - lo);
+                        f1 = f(m1);
+                    } else {
+                        lo = m1;
+                        (m1, f1) = (m2, f2);
+                        m2 = lo + r * (hi - lo);
+                        f2 = f(m2);
+                    }
+                }
+                let s_min = 0.5 * (lo + hi);
+                if f(s_min) >= 0.0 {
+                    continue;
+                }
+                s_min
+            };
+            // bisection on the interpolant for the fraction of the step
+            let (mut lo, mut hi) = (0.0, s_hi);
             for _ in 0..60 {
                 let mid = 0.5 * (lo + hi);
                 if g_at(mid) * g0 > 0.0 {
@@ -687,21 +780,39 @@ impl Simulator {
                     hi = mid;
                 }
             }
-            if best.map_or(true, |(sb, _)| hi < sb) {
-                best = Some((hi, e));
+            if best.map_or(true, |(sb, _, _)| hi < sb) {
+                best = Some((hi, e, s_hi));
             }
         }
-        best.map(|(_, e)| e)
+        best.map(|(_, e, s_hi)| (e, s_hi))
     }
 
     /// Finds h* in (0, h] with gap_target(step(h*)) = 0 by the Illinois method on the
     /// step map, leaving the trial at h*. If another sleeve turns out to cross
     /// earlier, it becomes the target.
-    fn locate_latch(&mut self, mut target: usize, h: f64) -> Result<f64, SolverError> {
-        let model = &self.model;
-        let g0 = gap(model, target, &self.state.x);
+    ///
+    /// `s_hi` < 1 (a touch and turn inside the step): the step map is first
+    /// evaluated at s_hi h for a bracket; if the gap there has not crossed
+    /// after all (the interpolant's dip was not real), the trial is restored
+    /// to the whole step and None returned.
+    fn locate_latch(
+        &mut self,
+        mut target: usize,
+        h: f64,
+        s_hi: f64,
+    ) -> Result<Option<f64>, SolverError> {
+        let g0 = gap(&self.model, target, &self.state.x);
+        let mut b = h;
+        if s_hi < 1.0 {
+            b = s_hi * h;
+            self.core.newmark(&self.model, &self.state, b, &self.opts)?;
+            if gap(&self.model, target, &self.core.x) * g0 > 0.0 {
+                self.core.newmark(&self.model, &self.state, h, &self.opts)?;
+                return Ok(None);
+            }
+        }
         let (mut a, mut ga) = (0.0, g0);
-        let (mut b, mut gb) = (h, gap(model, target, &self.core.x));
+        let mut gb = gap(&self.model, target, &self.core.x);
         let mut side = 0i32;
         let mut h_star = b;
         for _ in 0..100 {
@@ -725,7 +836,7 @@ impl Simulator {
                 continue;
             }
             if gm.abs() <= self.opts.root_tol_m || (b - a) <= 1e-15 * h {
-                return Ok(h_star);
+                return Ok(Some(h_star));
             }
             if gm * ga > 0.0 {
                 a = m;
@@ -746,7 +857,7 @@ impl Simulator {
         // Accept the best point found; the latch projection closes the remaining gap.
         let _ = h_star;
         self.core.newmark(&self.model, &self.state, b, &self.opts)?;
-        Ok(b)
+        Ok(Some(b))
     }
 
     /// Another unlocked sleeve whose gap has changed sign (beyond the latch
