@@ -597,7 +597,8 @@ fn a_sleeve_that_touches_its_length_inside_a_step_latches_at_the_closed_form_tim
 /// end (Newmark integrates constant accelerations exactly) when the cable is
 /// released at t = 0.5 s. Starting that step from the accelerations of the old
 /// command would take the force jump for a ramp over the step, an error of
-/// h^2 / 4 (F / m) = 7e-3 m at its end.
+/// h^2 / 4 (F / m) = 7e-3 m at its end. The energy ledger balances to
+/// roundoff throughout.
 #[test]
 fn a_cable_command_applies_in_full_from_the_next_step() {
     let (m_b, f, g, t_release): (f64, f64, f64, f64) = (0.7, 2.0, 1.0, 0.5);
@@ -631,5 +632,10 @@ fn a_cable_command_applies_in_full_from_the_next_step() {
             s.v[3]
         );
         assert!(s.locks.is_empty());
+        // and the energy ledger balances across the jump (cable and gravity
+        // work against kinetic energy; constant forces: exact)
+        let ke = s.kinetic_energy_j(sim.model());
+        let err = s.energy.balance_rel_error(ke);
+        assert!(err <= 1e-12, "t {t}: energy balance error {err:e}");
     }
 }
