@@ -100,11 +100,29 @@ fn compare_runs(name: &str, model: impl Fn() -> Model, max_steps: usize, to_depl
         worst_impulse =
             worst_impulse.max((a.impulse_ns - b.impulse_ns).abs() / a.impulse_ns.max(1e-300));
     }
+    // Member forces: the minimum-norm multipliers agree (the sparse state's
+    // basic ones put a redundant group's whole share on the rows it keeps).
+    let n_locks = ld.len();
+    let (lam_d, lam_s) = (
+        d.min_norm_multipliers().expect("dense multipliers"),
+        s.min_norm_multipliers().expect("sparse multipliers"),
+    );
+    assert_eq!(
+        lam_d,
+        d.state().lambda,
+        "{name}: dense multipliers are min-norm"
+    );
+    let lam_err = max_diff(&lam_d, &lam_s) / max_abs(&lam_d).max(1e-300);
+    assert!(
+        lam_err <= 1e-6,
+        "{name}: minimum-norm multipliers differ by {lam_err:e} (relative to the largest)"
+    );
     eprintln!(
         "{name}: {steps} steps, max position difference {worst:.2e} m, deploy at {:?} s, \
-         {} locks, max relative lock-impulse difference {worst_impulse:.1e}",
+         {n_locks} locks, max relative lock-impulse difference {worst_impulse:.1e}, \
+         min-norm multipliers {lam_err:.1e} (basic: {:.1e})",
         d.state().deploy_time_s,
-        ld.len()
+        max_diff(&lam_d, &s.state().lambda) / max_abs(&lam_d).max(1e-300)
     );
 }
 

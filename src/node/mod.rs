@@ -435,7 +435,15 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
         if now >= next_pub {
             let stamp = sim_stamp(sim.state().t_s);
             let _ = ep.clock.publish(Clock { clock: stamp });
-            let _ = ep.js.publish(view.joint_state(&sim, stamp, &a.frame_id));
+            // (a least-squares solve with the sparse backend, only once a
+            // sleeve has latched: the efforts of sliding sleeves are 0)
+            let shared = (sim.state().locked.iter().any(|&l| l))
+                .then(|| sim.min_norm_multipliers())
+                .and_then(Result::ok);
+            let lambda = shared.as_deref().unwrap_or(&sim.state().lambda);
+            let _ = ep
+                .js
+                .publish(view.joint_state(&sim, lambda, stamp, &a.frame_id));
             let _ = ep.state.publish(view.truss_state(&sim, stamp, &a.frame_id));
             summary.publications += 1;
             if let Some(tm) = timing.as_mut() {

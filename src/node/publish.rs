@@ -100,7 +100,17 @@ impl View {
         &self.names
     }
 
-    pub fn joint_state(&self, sim: &Simulator, stamp: Time, frame: &str) -> JointState {
+    /// `lambda`: the state's multipliers with the minimum-norm split among
+    /// redundant rows (`Simulator::min_norm_multipliers`), so that sleeves
+    /// that latched together show their shares of the load whichever solver
+    /// runs.
+    pub fn joint_state(
+        &self,
+        sim: &Simulator,
+        lambda: &[f64],
+        stamp: Time,
+        frame: &str,
+    ) -> JointState {
         let (m, s) = (sim.model(), sim.state());
         let n = self.joints.len();
         let (mut pos, mut vel, mut eff) = (
@@ -131,7 +141,7 @@ impl View {
                         jac.blocks
                             .iter()
                             .find(|b| b.element == *e)
-                            .and_then(|b| s.lambda.get(b.row0))
+                            .and_then(|b| lambda.get(b.row0))
                             .map(|l| -l)
                             .unwrap_or(0.0)
                     } else {
@@ -342,5 +352,55 @@ impl MarkerPub {
                 })
                 .map_err(|_| ()),
         };
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::node::msgs::sim_stamp;
+    use crate::solver::{Options, SolverKind};
+
+    /// The deployed mast's four sleeves latched together (a redundant group):
+    /// their published efforts are the minimum-norm shares, the same with
+    /// either solver, not the sparse basic split that gives one sleeve the
+    /// whole load (0.173 N on S1, 0 on the others).
+    #[test]
+    fn latched_sleeve_efforts_do_not_depend_on_the_solver() {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/models/pantograph_mast.toml");
+        let efforts = |solver: SolverKind| {
+            let model = crate::model::load(std::path::Path::new(path))
+                .expect("bundled model")
+                .model;
+            let view = View::new(&model);
+            let opts = Options {
+                solver,
+                ..Options::default()
+            };
+            let mut sim = Simulator::new(model, opts).expect("simulator");
+            while !sim.state().deployed {
+                sim.step(0.05).expect("step");
+            }
+            let lambda = sim.min_norm_multipliers().expect("multipliers");
+            let js = view.joint_state(&sim, &lambda, sim_stamp(sim.state().t_s), "world");
+            let sleeves: Vec<f64> = js
+                .name
+                .iter()
+                .zip(&js.effort)
+                .filter(|(n, _)| n.starts_with('S'))
+                .map(|(_, &f)| f)
+                .collect();
+            sleeves
+        };
+        let (dense, sparse) = (efforts(SolverKind::Dense), efforts(SolverKind::Sparse));
+        assert_eq!(dense.len(), 4, "four sleeves published: {dense:?}");
+        let total: f64 = dense.iter().sum();
+        for (d, s) in dense.iter().zip(&sparse) {
+            assert!(*d > 0.1 * total, "each sleeve carries a share: {dense:?}");
+            assert!(
+                (d - s).abs() <= 1e-6 * total,
+                "dense {dense:?} vs sparse {sparse:?}"
+            );
+        }
     }
 }

@@ -325,6 +325,40 @@ impl Core {
         }
     }
 
+    /// The minimum-norm multipliers S^+ (A M^-1 A^T lambda) of the state
+    /// (x, lambda) into `mu`: the same joint forces A^T lambda, split among
+    /// redundant rows by least squares. Returns false (and leaves `mu`) where
+    /// the backend's multipliers are minimum-norm already.
+    fn min_norm_multipliers(
+        &mut self,
+        model: &Model,
+        x: &[f64],
+        lambda: &[f64],
+    ) -> Result<bool, SolverError> {
+        if self.solver.is_min_norm() || !self.solver.set_min_norm(true) {
+            return Ok(false);
+        }
+        self.x.copy_from_slice(x);
+        self.jac.fill(model, &self.x);
+        // r = S lambda, consistent by construction
+        self.jac.mul_t(lambda, &mut self.dx);
+        for (d, w) in self.dx.iter_mut().zip(&model.inv_mass) {
+            *d *= w;
+        }
+        self.jac.mul(&self.dx, &mut self.r);
+        let solved = self.factor(model).map(|()| {
+            self.solver.correction(
+                &self.jac,
+                &model.inv_mass,
+                &self.r,
+                &mut self.dx,
+                &mut self.mu,
+            )
+        });
+        self.solver.set_min_norm(false);
+        solved.map(|()| true)
+    }
+
     /// One Newmark step of length h from `s` into the trial state.
     fn newmark(
         &mut self,
@@ -569,6 +603,21 @@ impl Simulator {
     /// The solver's counters, for benchmarks.
     pub fn solver_diagnostics(&self) -> String {
         self.core.solver.diagnostics()
+    }
+
+    /// The state's multipliers with the minimum-norm split among redundant
+    /// rows (member forces of a statically indeterminate latched truss, e.g.
+    /// sleeves that latched together): solver-independent. The sparse
+    /// backend's `State::lambda` gives the whole share to the rows it keeps
+    /// (same joint forces); this costs one least-squares solve there and
+    /// nothing with the dense backend, whose multipliers are minimum-norm.
+    pub fn min_norm_multipliers(&mut self) -> Result<Vec<f64>, SolverError> {
+        let (model, core, s) = (&self.model, &mut self.core, &self.state);
+        if core.min_norm_multipliers(model, &s.x, &s.lambda)? {
+            Ok(core.mu.clone())
+        } else {
+            Ok(s.lambda.clone())
+        }
     }
 
     /// Sets a cable's motor-end tension from the next step on.

@@ -62,6 +62,8 @@ pub struct State {
     /// With redundant rows the split is statically indeterminate: the dense
     /// solver gives the minimum-norm one, the sparse solver one that leaves the
     /// rows it found redundant at zero (both give the same joint forces A^T lambda).
+    /// `Simulator::min_norm_multipliers` gives the minimum-norm split with
+    /// either (what the node publishes as sleeve forces).
     pub lambda: Vec<f64>,
     pub energy: Energy,
     pub locks: Vec<LockEvent>,
