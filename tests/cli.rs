@@ -431,3 +431,56 @@ fn negative_dt_message_names_the_option() {
     ]);
     assert_input_error(&o, "--dt -1", &["--dt", "positive"], true);
 }
+
+/// `generate --start-deg` starts a model part-way: a ring generated 1 deg from
+/// flat deploys in a fraction of a second with all 90 sleeves latching (the
+/// quick way to study the latch); angles out of range, and a deploy angle for
+/// the ring (which latches flat), are input errors that write nothing.
+#[test]
+fn generate_start_angle_sets_where_the_deployment_starts() {
+    let d = temp_dir("start_deg");
+    let (model, json) = (d.join("r1.toml"), d.join("r1.json"));
+    let o = run(&[
+        "generate".as_ref(),
+        "ring".as_ref(),
+        "--start-deg".as_ref(),
+        "1".as_ref(),
+        "-o".as_ref(),
+        model.as_os_str(),
+    ]);
+    assert_success(&o, "generate ring --start-deg 1");
+    let o = run(&[
+        "simulate".as_ref(),
+        model.as_os_str(),
+        "--json".as_ref(),
+        json.as_os_str(),
+    ]);
+    assert_success(&o, "simulate the ring from 1 deg");
+    let v = read_json(&json);
+    assert_eq!(v["deployed"], Value::Bool(true), "{v:#}");
+    let t = num(&v, "deploy_time_s");
+    assert!(t > 0.0 && t < 1.0, "deploys from 1 deg in {t} s");
+    assert_eq!(v["locks"].as_array().map(|l| l.len()), Some(90), "{v:#}");
+    for (args, phrases) in [
+        (
+            &["ring", "--start-deg", "90"][..],
+            &["start angle", "90"][..],
+        ),
+        (
+            &["mast", "--start-deg", "70"][..],
+            &["start angle", "70"][..],
+        ),
+        (
+            &["ring", "--deploy-deg", "10"][..],
+            &["--deploy-deg", "ring"][..],
+        ),
+    ] {
+        let bad = d.join("bad.toml");
+        let mut argv: Vec<&std::ffi::OsStr> = vec![std::ffi::OsStr::new("generate")];
+        argv.extend(args.iter().map(std::ffi::OsStr::new));
+        argv.extend([std::ffi::OsStr::new("-o"), bad.as_os_str()]);
+        assert_input_error(&run(&argv), &args.join(" "), phrases, true);
+        assert!(!bad.exists(), "{args:?}: nothing is written on bad input");
+    }
+    let _ = std::fs::remove_dir_all(&d);
+}

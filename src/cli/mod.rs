@@ -102,6 +102,14 @@ struct GenerateArgs {
     /// Viscous damping per joint (N s/m).
     #[arg(long, allow_negative_numbers = true)]
     damping: Option<f64>,
+    /// Angle at the start (deg): mast, rod angle from the horizontal (default 5); ring, tilt of
+    /// the outer bays' chords, 0 = deployed (default 35; e.g. 1 to study the latch); sail, rod
+    /// angle from the vertical (default 1).
+    #[arg(long, allow_negative_numbers = true)]
+    start_deg: Option<f64>,
+    /// mast, sail: angle at which the sleeves latch (deg; defaults 60 and 55). The ring latches flat.
+    #[arg(long, allow_negative_numbers = true)]
+    deploy_deg: Option<f64>,
 }
 
 #[derive(Args, Debug)]
@@ -329,11 +337,19 @@ fn generate_cmd(a: GenerateArgs) -> Result<(), Failure> {
                 max_tension_n: d.max_tension_n.max(a.tension_n.unwrap_or(0.0)),
                 friction_mu: a.mu.unwrap_or(d.friction_mu),
                 damping_n_s_per_m: a.damping.unwrap_or(d.damping_n_s_per_m),
+                start_deg: a.start_deg.unwrap_or(d.start_deg),
+                deploy_deg: a.deploy_deg.unwrap_or(d.deploy_deg),
                 ..d
             };
             generate::mast(&p).map_err(Failure::input)?
         }
         Kind::Ring => {
+            if a.deploy_deg.is_some() {
+                return Err(Failure::input(
+                    "--deploy-deg: the ring has no deploy angle (it latches flat); \
+                     --start-deg sets where it starts",
+                ));
+            }
             let d = generate::ring::RingParams::default();
             let p = generate::ring::RingParams {
                 sides: a.sides,
@@ -342,6 +358,7 @@ fn generate_cmd(a: GenerateArgs) -> Result<(), Failure> {
                 damping_n_s_per_m: a.damping.unwrap_or(d.damping_n_s_per_m),
                 sync: a.sync.clone(),
                 mount: a.mount.clone(),
+                start_deg: a.start_deg.unwrap_or(d.start_deg),
                 ..d
             };
             generate::ring::ring(&p).map_err(Failure::input)?
@@ -353,6 +370,8 @@ fn generate_cmd(a: GenerateArgs) -> Result<(), Failure> {
                 tension_n: a.tension_n.unwrap_or(d.tension_n),
                 friction_mu: a.mu.unwrap_or(d.friction_mu),
                 damping_n_s_per_m: a.damping.unwrap_or(d.damping_n_s_per_m),
+                start_deg: a.start_deg.unwrap_or(d.start_deg),
+                deploy_deg: a.deploy_deg.unwrap_or(d.deploy_deg),
                 ..d
             };
             generate::sail::sail(&p).map_err(Failure::input)?
