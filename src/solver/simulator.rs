@@ -504,6 +504,37 @@ impl Core {
     }
 }
 
+/// A copy of a trial step, to come back to after trials of other lengths.
+#[derive(Default)]
+struct TrialCopy {
+    x: Vec<f64>,
+    v: Vec<f64>,
+    a: Vec<f64>,
+    lambda: Vec<f64>,
+    cables: Vec<CableEval>,
+    violation_m: f64,
+}
+
+impl Core {
+    fn save_trial(&self, to: &mut TrialCopy) {
+        to.x.clone_from(&self.x);
+        to.v.clone_from(&self.v);
+        to.a.clone_from(&self.a);
+        to.lambda.clone_from(&self.lambda);
+        to.cables.clone_from(&self.cables);
+        to.violation_m = self.violation_m;
+    }
+
+    fn restore_trial(&mut self, from: &TrialCopy) {
+        self.x.clone_from(&from.x);
+        self.v.clone_from(&from.v);
+        self.a.clone_from(&from.a);
+        self.lambda.clone_from(&from.lambda);
+        self.cables.clone_from(&from.cables);
+        self.violation_m = from.violation_m;
+    }
+}
+
 /// The simulator: an immutable model, the state it advances, and the solver.
 pub struct Simulator {
     model: Model,
@@ -512,6 +543,8 @@ pub struct Simulator {
     opts: Options,
     /// A cable command changed since the state's accelerations were computed.
     command_changed: bool,
+    /// The full-step trial while a dip of a sleeve's gap is checked.
+    trial_copy: TrialCopy,
 }
 
 fn gap(model: &Model, e: usize, x: &[f64]) -> f64 {
@@ -545,6 +578,7 @@ impl Simulator {
             core,
             opts,
             command_changed: false,
+            trial_copy: TrialCopy::default(),
         };
         sim.initialize()?;
         Ok(sim)
@@ -727,31 +761,34 @@ impl Simulator {
                 }
                 other => other?,
             }
-            match self.first_crossing(h, true) {
-                None => {
+            // Sleeves whose interpolated dip to zero the step map did not
+            // confirm (e.g. the ring's radial sleeves, whose length is least
+            // at the flat state its diagonals latch in): the full-step trial is
+            // restored and the search goes on without them.
+            let mut not_real: Vec<usize> = Vec::new();
+            loop {
+                let Some((target, s_hi)) = self.first_crossing(h, &not_real) else {
                     self.accept(h);
+                    break;
+                };
+                if s_hi < 1.0 {
+                    self.core.save_trial(&mut self.trial_copy);
                 }
-                Some((target, s_hi)) => {
-                    // The trial steps of the root search all lie just short of
-                    // a latch, typically the flat deployed state where redundant
-                    // rows are only nearly redundant: least-squares solves there.
-                    let _ = self.core.solver.set_min_norm(true);
-                    let mut located = self.locate_latch(target, h, s_hi);
-                    if let Ok(None) = located {
-                        // The interpolant's dip was not real (e.g. the ring's
-                        // radial sleeves, whose length is least at the flat
-                        // state the diagonals latch in): sign changes decide.
-                        if let Some((target, _)) = self.first_crossing(h, false) {
-                            located = self.locate_latch(target, h, 1.0);
-                        }
+                // The trial steps of the root search all lie just short of
+                // a latch, typically the flat deployed state where redundant
+                // rows are only nearly redundant: least-squares solves there.
+                let _ = self.core.solver.set_min_norm(true);
+                let located = self.locate_latch(target, h, s_hi);
+                let _ = self.core.solver.set_min_norm(false);
+                match located? {
+                    Some(h_star) => {
+                        self.accept(h_star);
+                        events += self.latch()?;
+                        break;
                     }
-                    let _ = self.core.solver.set_min_norm(false);
-                    match located? {
-                        Some(h_star) => {
-                            self.accept(h_star);
-                            events += self.latch()?;
-                        }
-                        None => self.accept(h),
+                    None => {
+                        self.core.restore_trial(&self.trial_copy);
+                        not_real.push(target);
                     }
                 }
             }
@@ -767,8 +804,9 @@ impl Simulator {
     /// which it has crossed: 1 when the gap changes sign over the step, less
     /// when it touches zero and turns back inside the step (both ends on the
     /// same side; s_hi is then the interpolant's turning point).
-    /// `dips`: whether touches that turn back count (else sign changes only).
-    fn first_crossing(&self, h: f64, dips: bool) -> Option<(usize, f64)> {
+    /// Dips of the sleeves in `no_dips` (found not real on the step map) are
+    /// not considered again; their sign changes are.
+    fn first_crossing(&self, h: f64, no_dips: &[usize]) -> Option<(usize, f64)> {
         let (s, c) = (&self.state, &self.core);
         let mut best: Option<(f64, usize, f64)> = None;
         for &e in &self.model.locks {
@@ -793,7 +831,7 @@ impl Simulator {
             };
             let s_hi = if g0 * g1 <= 0.0 {
                 1.0
-            } else if !dips {
+            } else if no_dips.contains(&e) {
                 continue;
             } else {
                 // Same side at both ends: a touch and turn needs the gap to
@@ -850,25 +888,44 @@ impl Simulator {
     /// earlier, it becomes the target.
     ///
     /// `s_hi` < 1 (a touch and turn inside the step): the step map is first
-    /// evaluated at s_hi h for a bracket; if the gap there has not crossed
-    /// after all (the interpolant's dip was not real), the trial is restored
-    /// to the whole step and None returned.
+    /// evaluated at s_hi h for a bracket. A gap there within the latch
+    /// tolerance is a touch: h* = s_hi h. A gap that has not crossed after
+    /// all (the interpolant's dip was not real), or a failed step there, gives
+    /// None, with the trial left at whatever it last computed.
     fn locate_latch(
         &mut self,
         mut target: usize,
         h: f64,
         s_hi: f64,
     ) -> Result<Option<f64>, SolverError> {
-        let g0 = gap(&self.model, target, &self.state.x);
         let mut b = h;
         if s_hi < 1.0 {
             b = s_hi * h;
-            self.core.newmark(&self.model, &self.state, b, &self.opts)?;
-            if gap(&self.model, target, &self.core.x) * g0 > 0.0 {
-                self.core.newmark(&self.model, &self.state, h, &self.opts)?;
+            if self
+                .core
+                .newmark(&self.model, &self.state, b, &self.opts)
+                .is_err()
+            {
                 return Ok(None);
             }
+            // A sleeve that has crossed by then comes first (e.g. the ring's
+            // diagonals, just before its radial sleeves touch at the flat state).
+            if let Some(other) = self.crossed_by(b, target) {
+                target = other;
+            } else {
+                let (g0, gb) = (
+                    gap(&self.model, target, &self.state.x),
+                    gap(&self.model, target, &self.core.x),
+                );
+                if gb.abs() <= self.opts.lock_tol_m {
+                    return Ok(Some(b));
+                }
+                if gb * g0 > 0.0 {
+                    return Ok(None);
+                }
+            }
         }
+        let g0 = gap(&self.model, target, &self.state.x);
         let (mut a, mut ga) = (0.0, g0);
         let mut gb = gap(&self.model, target, &self.core.x);
         let mut side = 0i32;
