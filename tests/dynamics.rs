@@ -598,7 +598,7 @@ fn a_sleeve_that_touches_its_length_inside_a_step_latches_at_the_closed_form_tim
 /// released at t = 0.5 s. Starting that step from the accelerations of the old
 /// command would take the force jump for a ramp over the step, an error of
 /// h^2 / 4 (F / m) = 7e-3 m at its end. The energy ledger balances to
-/// roundoff throughout.
+/// roundoff throughout, with no friction loss on this pulley-less cable.
 #[test]
 fn a_cable_command_applies_in_full_from_the_next_step() {
     let (m_b, f, g, t_release): (f64, f64, f64, f64) = (0.7, 2.0, 1.0, 0.5);
@@ -637,5 +637,9 @@ fn a_cable_command_applies_in_full_from_the_next_step() {
         let ke = s.kinetic_energy_j(sim.model());
         let err = s.energy.balance_rel_error(ke);
         assert!(err <= 1e-12, "t {t}: energy balance error {err:e}");
+        // a cable without pulleys loses nothing to friction (starting the
+        // step from the old command's tensions booked -0.095 J there)
+        let friction = s.energy.friction_loss_j;
+        assert!(friction.abs() <= 1e-12, "t {t}: friction loss {friction} J");
     }
 }
