@@ -694,9 +694,31 @@ impl Simulator {
         core.x.copy_from_slice(&self.state.x);
         core.v.copy_from_slice(&self.state.v);
         core.a_guess.copy_from_slice(&self.state.a);
-        core.prev_h = None; // no extrapolation across the jump
         core.factor(model)?;
         core.accelerations(model, &self.state.cable_tension_cmd_n, false)?;
+        // Cables with mass: their inertia term takes the acceleration from
+        // a_guess, so iterate to the fixed point (a contraction like Newmark's).
+        if model.cables.iter().any(|c| c.line_density_kg_per_m > 0.0) {
+            for _ in 0..20 {
+                let (mut change, mut scale) = (0.0f64, 0.0f64);
+                for (a, g) in core.a.iter().zip(&core.a_guess) {
+                    change = change.max((a - g).abs());
+                    scale = scale.max(a.abs());
+                }
+                if change <= 1e-13 * scale {
+                    break;
+                }
+                core.a_guess.copy_from_slice(&core.a);
+                core.accelerations(model, &self.state.cable_tension_cmd_n, false)?;
+            }
+        }
+        // The Newmark predictor extrapolates the accelerations of the last
+        // steps: shift them by the jump, which the command makes persist.
+        for i in 0..core.a.len() {
+            let jump = core.a[i] - self.state.a[i];
+            core.a_prev[i] += jump;
+            core.a_prev2[i] += jump;
+        }
         let s = &mut self.state;
         s.a.copy_from_slice(&core.a);
         s.lambda.clone_from(&core.lambda);
