@@ -99,6 +99,9 @@ struct Core {
     prev_h: Option<f64>,
     a_prev2: Vec<f64>,
     prev_h2: Option<f64>,
+    /// The backend that computes minimum-norm multipliers on request
+    /// (`Simulator::min_norm_multipliers`), made at the first request.
+    aux_solver: Option<Box<dyn ConstraintSolver>>,
 }
 
 impl Core {
@@ -135,6 +138,7 @@ impl Core {
             prev_h: None,
             a_prev2: vec![0.0; n],
             prev_h2: None,
+            aux_solver: None,
         }
     }
 
@@ -336,10 +340,16 @@ impl Core {
     fn min_norm_multipliers(
         &mut self,
         model: &Model,
+        kind: SolverKind,
         x: &[f64],
         lambda: &[f64],
     ) -> Result<bool, SolverError> {
-        if self.solver.is_min_norm() || !self.solver.set_min_norm(true) {
+        // A second instance of the backend does the least-squares solve, so
+        // the stepping solver's kept factorizations, counters and re-probe
+        // schedule stay as they were: the trajectory does not depend on how
+        // often this is called (the node calls it at its publish rate).
+        let aux = self.aux_solver.get_or_insert_with(|| kind.make());
+        if !aux.set_min_norm(true) {
             return Ok(false);
         }
         self.x.copy_from_slice(x);
@@ -350,17 +360,15 @@ impl Core {
             *d *= w;
         }
         self.jac.mul(&self.dx, &mut self.r);
-        let solved = self.factor(model).map(|()| {
-            self.solver.correction(
-                &self.jac,
-                &model.inv_mass,
-                &self.r,
-                &mut self.dx,
-                &mut self.mu,
-            )
-        });
-        self.solver.set_min_norm(false);
-        solved.map(|()| true)
+        aux.factor(&self.jac, &model.inv_mass)?;
+        aux.correction(
+            &self.jac,
+            &model.inv_mass,
+            &self.r,
+            &mut self.dx,
+            &mut self.mu,
+        );
+        Ok(true)
     }
 
     /// One Newmark step of length h from `s` into the trial state.
@@ -656,7 +664,7 @@ impl Simulator {
     /// nothing with the dense backend, whose multipliers are minimum-norm.
     pub fn min_norm_multipliers(&mut self) -> Result<Vec<f64>, SolverError> {
         let (model, core, s) = (&self.model, &mut self.core, &self.state);
-        if core.min_norm_multipliers(model, &s.x, &s.lambda)? {
+        if core.min_norm_multipliers(model, self.opts.solver, &s.x, &s.lambda)? {
             Ok(core.mu.clone())
         } else {
             Ok(s.lambda.clone())
