@@ -486,12 +486,18 @@ fn damped_latch_time_converges_at_second_order() {
 /// A fixed at the origin, B on the x axis at 1 m pulled toward A by a cable of
 /// tension F against gravity g along +x, with a sleeve A-B latching at `lock` m.
 fn tug_against_gravity_model(m_b: f64, f: f64, g: f64, lock: f64) -> String {
+    damped_tug_model(m_b, f, g, 0.0, lock)
+}
+
+/// The tug model with viscous damping c (N s/m) on the joints.
+fn damped_tug_model(m_b: f64, f: f64, g: f64, c: f64, lock: f64) -> String {
     format!(
         r#"
 [model]
 name = "tug"
 [settings]
 gravity_m_s2 = [{g}, 0.0, 0.0]
+damping_n_s_per_m = {c}
 [[joint]]
 name = "A"
 position_m = [0.0, 0.0, 0.0]
@@ -642,4 +648,52 @@ fn a_cable_command_applies_in_full_from_the_next_step() {
         let friction = s.energy.friction_loss_j;
         assert!(friction.abs() <= 1e-12, "t {t}: friction loss {friction} J");
     }
+}
+
+/// A dip of the step's interpolant that the step map does not confirm is no
+/// latch, and the step is the one it would have been: the damped tug (motion
+/// not polynomial, so the cubic Hermite interpolant of the step is off)
+/// turns at x = 0.50034 m on its step map (Newmark steps of every fraction of
+/// the step) while the interpolant of that step dips to 0.49894 m. With the
+/// lock at 0.4997 m the interpolant shows a touch-and-turn (both step ends
+/// beyond the lock, B closing at the start and opening at the end); the check
+/// on the step map rejects it, and the run is bitwise the run with the lock
+/// out of reach.
+#[test]
+fn an_interpolated_dip_that_the_step_does_not_confirm_latches_nothing() {
+    let (m_b, f, g, c, dt, t_release) = (0.7, 2.0, 1.0, 0.3, 0.5, 0.5);
+    let lock = 0.4997;
+    let run = |lock: f64| {
+        let model = parse(&damped_tug_model(m_b, f, g, c, lock), "tug.toml")
+            .unwrap()
+            .model;
+        let mut sim = Simulator::new(model, Options::default()).unwrap();
+        let mut states = vec![(sim.state().x[3], sim.state().v[3])];
+        for _ in 0..6 {
+            if sim.state().t_s >= t_release - 1e-12 {
+                sim.set_cable_tension(0, 0.0).unwrap();
+            }
+            sim.step(dt).unwrap();
+            assert!(sim.state().locks.is_empty(), "latched at lock {lock} m");
+            states.push((sim.state().x[3], sim.state().v[3]));
+        }
+        states
+    };
+    let (near, far) = (run(lock), run(0.01));
+    assert_eq!(near, far, "the run with the lock in reach differs");
+    // The scenario: the step from t = 1.0 to 1.5 s turns B around, ends
+    // beyond the lock, and its interpolant dips below the lock.
+    let ((x0, v0), (x1, v1)) = (near[2], near[3]);
+    assert!(x0 > lock && x1 > lock && v0 < 0.0 && v1 > 0.0, "{near:?}");
+    let dip = (0..=1000)
+        .map(|i| {
+            let s = i as f64 / 1000.0;
+            let (s2, s3) = (s * s, s * s * s);
+            (2.0 * s3 - 3.0 * s2 + 1.0) * x0
+                + (s3 - 2.0 * s2 + s) * dt * v0
+                + (-2.0 * s3 + 3.0 * s2) * x1
+                + (s3 - s2) * dt * v1
+        })
+        .fold(f64::INFINITY, f64::min);
+    assert!(dip < lock - 1e-4, "interpolant dips only to {dip} m");
 }
