@@ -449,9 +449,12 @@ fn generate_start_angle_sets_where_the_deployment_starts() {
         model.as_os_str(),
     ]);
     assert_success(&o, "generate ring --start-deg 1");
+    // (--until bounds the run should the latch be missed)
     let o = run(&[
         "simulate".as_ref(),
         model.as_os_str(),
+        "--until".as_ref(),
+        "2".as_ref(),
         "--json".as_ref(),
         json.as_os_str(),
     ]);
