@@ -224,6 +224,31 @@ impl Core {
         Ok(())
     }
 
+    /// Constrained accelerations at the trial (x, v) from a current
+    /// factorization, where nothing better than `a_guess` is known of them (the
+    /// start, a latch, a command change). Cables with mass take their inertia
+    /// term from `a_guess`: the evaluation is repeated to its fixed point (a
+    /// contraction like the Newmark iteration's).
+    fn consistent_accelerations(&mut self, model: &Model, cmd: &[f64]) -> Result<(), SolverError> {
+        self.accelerations(model, cmd, false)?;
+        if !model.cables.iter().any(|c| c.line_density_kg_per_m > 0.0) {
+            return Ok(());
+        }
+        for _ in 0..20 {
+            let (mut change, mut scale) = (0.0f64, 0.0f64);
+            for (a, g) in self.a.iter().zip(&self.a_guess) {
+                change = change.max((a - g).abs());
+                scale = scale.max(a.abs());
+            }
+            if change <= 1e-13 * scale {
+                break;
+            }
+            self.a_guess.copy_from_slice(&self.a);
+            self.accelerations(model, cmd, false)?;
+        }
+        Ok(())
+    }
+
     /// Newton iterations X <- X - M^-1 A^T S^+ Phi(X) until max |Phi| <= tol.
     fn project_positions(
         &mut self,
@@ -618,7 +643,7 @@ impl Simulator {
         core.v.fill(0.0);
         core.factor(model)?;
         core.a_guess.fill(0.0);
-        core.accelerations(model, &state.cable_tension_cmd_n, false)?;
+        core.consistent_accelerations(model, &state.cable_tension_cmd_n)?;
         state.x.copy_from_slice(&core.x);
         state.a.copy_from_slice(&core.a);
         state.lambda.clone_from(&core.lambda);
@@ -703,23 +728,7 @@ impl Simulator {
         core.v.copy_from_slice(&self.state.v);
         core.a_guess.copy_from_slice(&self.state.a);
         core.factor(model)?;
-        core.accelerations(model, &self.state.cable_tension_cmd_n, false)?;
-        // Cables with mass: their inertia term takes the acceleration from
-        // a_guess, so iterate to the fixed point (a contraction like Newmark's).
-        if model.cables.iter().any(|c| c.line_density_kg_per_m > 0.0) {
-            for _ in 0..20 {
-                let (mut change, mut scale) = (0.0f64, 0.0f64);
-                for (a, g) in core.a.iter().zip(&core.a_guess) {
-                    change = change.max((a - g).abs());
-                    scale = scale.max(a.abs());
-                }
-                if change <= 1e-13 * scale {
-                    break;
-                }
-                core.a_guess.copy_from_slice(&core.a);
-                core.accelerations(model, &self.state.cable_tension_cmd_n, false)?;
-            }
-        }
+        core.consistent_accelerations(model, &self.state.cable_tension_cmd_n)?;
         // The Newmark predictor extrapolates the accelerations of the last
         // steps: shift them by the jump, which the command makes persist.
         for i in 0..core.a.len() {
@@ -1093,7 +1102,7 @@ impl Simulator {
             core.factor(model)?;
             core.project_velocities(model)?; // r = A v before, mu = impulses
             core.a_guess.copy_from_slice(&self.state.a);
-            core.accelerations(model, &self.state.cable_tension_cmd_n, false)
+            core.consistent_accelerations(model, &self.state.cable_tension_cmd_n)
         })();
         let _ = core.solver.set_min_norm(false);
         settled?;
