@@ -314,6 +314,34 @@ fn zero_tension_holds_still_and_more_tension_deploys_sooner() {
             t > 0.0 && t < 12.0,
             "latched at {t} s with 0.2 N (0.02 N: ~20.4 s)"
         );
+        // The four sleeves latched together carry the minimum-norm shares of
+        // the load on /joint_states (the sparse solver's own multipliers give
+        // one of them all of it).
+        let mut sleeves = None;
+        for _ in 0..200 {
+            let Ok(Ok((js, _))) =
+                tokio::time::timeout(Duration::from_secs(2), p2.js.async_take()).await
+            else {
+                break;
+            };
+            if stamp_s(&js.header.stamp) > t {
+                let e: Vec<f64> = js
+                    .name
+                    .iter()
+                    .zip(&js.effort)
+                    .filter(|(n, _)| n.starts_with('S'))
+                    .map(|(_, &f)| f)
+                    .collect();
+                sleeves = Some(e);
+                break;
+            }
+        }
+        let e = sleeves.expect("joint_states after the latch");
+        let total: f64 = e.iter().sum();
+        assert!(
+            e.len() == 4 && total > 0.0 && e.iter().all(|&f| f > 0.1 * total),
+            "sleeve efforts after the latch: {e:?}"
+        );
     });
 }
 
