@@ -186,23 +186,34 @@ fn sleeves_of_a_one_dof_mast_latch_together_and_leave_no_mechanism() {
 /// Two masses on the x axis pulled together by a cable, with a sleeve between them
 /// that latches at `lock` m. Closed form: constant force F, reduced mass mu.
 fn two_mass_model(m1: f64, m2: f64, f: f64, lock: f64) -> String {
+    pulled_pair_model(m1, "yz", m2, f, 0.0, 0.0, lock)
+}
+
+/// A (mass m_a, its axes `fix_a` held) at the origin and B (m_b, held in y, z)
+/// on the x axis at 1 m, pulled together by a cable of tension F, with gravity
+/// g along +x, viscous damping c on the joints, and a sleeve A-B latching at
+/// `lock` m.
+fn pulled_pair_model(m_a: f64, fix_a: &str, m_b: f64, f: f64, g: f64, c: f64, lock: f64) -> String {
     format!(
         r#"
 [model]
-name = "two_masses"
+name = "pulled_pair"
+[settings]
+gravity_m_s2 = [{g}, 0.0, 0.0]
+damping_n_s_per_m = {c}
 [[joint]]
 name = "A"
 position_m = [0.0, 0.0, 0.0]
-mass_kg = {m1}
+mass_kg = {m_a}
 [[joint]]
 name = "B"
 position_m = [1.0, 0.0, 0.0]
-mass_kg = {m2}
+mass_kg = {m_b}
 [[element]]
 type = "support"
-name = "A_yz"
+name = "A_held"
 joints = ["A"]
-fix = "yz"
+fix = "{fix_a}"
 [[element]]
 type = "support"
 name = "B_yz"
@@ -217,6 +228,7 @@ lock_length_m = {lock}
 name = "pull"
 path = ["A", "B"]
 tension_n = {f}
+max_tension_n = {f}
 "#
     )
 }
@@ -491,43 +503,7 @@ fn tug_against_gravity_model(m_b: f64, f: f64, g: f64, lock: f64) -> String {
 
 /// The tug model with viscous damping c (N s/m) on the joints.
 fn damped_tug_model(m_b: f64, f: f64, g: f64, c: f64, lock: f64) -> String {
-    format!(
-        r#"
-[model]
-name = "tug"
-[settings]
-gravity_m_s2 = [{g}, 0.0, 0.0]
-damping_n_s_per_m = {c}
-[[joint]]
-name = "A"
-position_m = [0.0, 0.0, 0.0]
-mass_kg = 1.0
-[[joint]]
-name = "B"
-position_m = [1.0, 0.0, 0.0]
-mass_kg = {m_b}
-[[element]]
-type = "support"
-name = "A_fixed"
-joints = ["A"]
-fix = "xyz"
-[[element]]
-type = "support"
-name = "B_yz"
-joints = ["B"]
-fix = "yz"
-[[element]]
-type = "sleeve"
-name = "latch"
-joints = ["A", "B"]
-lock_length_m = {lock}
-[[cable]]
-name = "pull"
-path = ["A", "B"]
-tension_n = {f}
-max_tension_n = {f}
-"#
-    )
+    pulled_pair_model(1.0, "xyz", m_b, f, g, c, lock)
 }
 
 /// A sleeve that reaches its design length and would turn back inside one

@@ -856,7 +856,20 @@ impl Simulator {
             if g0 == 0.0 || g0.is_nan() || g1.is_nan() {
                 continue;
             }
+            // A sign change over the step, or else a touch and turn: the gap
+            // closes at the start (g0 gdot0 < 0) and opens at the end
+            // (g1 gdot1 > 0); then the interpolant's extremum (golden section
+            // on the g0-signed gap, unimodal over one turn) decides.
             let el = &self.model.elements[e];
+            let crossed = g0 * g1 <= 0.0;
+            if !crossed {
+                let rate = |x: &[f64], v: &[f64]| el.extension(x, v).map_or(0.0, |(_, r)| r);
+                if no_dips.contains(&e)
+                    || !(g0 * rate(&s.x, &s.v) < 0.0 && g1 * rate(&c.x, &c.v) > 0.0)
+                {
+                    continue;
+                }
+            }
             let (ja, jb) = (el.joints()[0], el.joints()[1]);
             let (pa0, pb0) = (super::elements::at(&s.x, ja), super::elements::at(&s.x, jb));
             let lock_len = (pb0 - pa0).norm() - g0;
@@ -868,19 +881,9 @@ impl Simulator {
                 ((pb[0] - pa[0]).powi(2) + (pb[1] - pa[1]).powi(2) + (pb[2] - pa[2]).powi(2)).sqrt()
                     - lock_len
             };
-            let s_hi = if g0 * g1 <= 0.0 {
+            let s_hi = if crossed {
                 1.0
-            } else if no_dips.contains(&e) {
-                continue;
             } else {
-                // Same side at both ends: a touch and turn needs the gap to
-                // close at the start (g0 gdot0 < 0) and open at the end
-                // (g1 gdot1 > 0). Then the interpolant's extremum (golden
-                // section on g0-signed gap, unimodal over one turn) decides.
-                let rate = |x: &[f64], v: &[f64]| el.extension(x, v).map_or(0.0, |(_, r)| r);
-                if !(g0 * rate(&s.x, &s.v) < 0.0 && g1 * rate(&c.x, &c.v) > 0.0) {
-                    continue;
-                }
                 let f = |sf: f64| g0.signum() * g_at(sf);
                 let r = 0.5 * (5f64.sqrt() - 1.0);
                 let (mut lo, mut hi) = (0.0, 1.0);
