@@ -6,8 +6,7 @@ use super::jacobian::Jacobian;
 use super::model::Model;
 use serde::Serialize;
 
-/// Relative singular-value threshold of the rank decision.
-pub const RANK_TOL: f64 = 1e-9;
+pub use super::rank::RANK_TOL;
 
 #[derive(Clone, Debug, Serialize)]
 pub struct ElementRows {
@@ -28,14 +27,9 @@ pub struct Mobility {
     pub per_element: Vec<ElementRows>,
 }
 
-/// Numerical rank of A by SVD.
+/// Numerical rank of A by SVD (the one decision: [`super::rank`]).
 pub fn rank(jac: &Jacobian) -> usize {
-    if jac.nrows == 0 {
-        return 0;
-    }
-    let sv = jac.to_dense().singular_values();
-    let smax = sv.iter().cloned().fold(0.0, f64::max);
-    sv.iter().filter(|s| **s > RANK_TOL * smax).count()
+    super::rank::of_jacobian(jac)
 }
 
 /// Mobility of `model` at positions `x` with the given locked set.

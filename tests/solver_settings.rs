@@ -1,0 +1,111 @@
+//! The `[solver]` settings reach the stepping loop, its counters count what it
+//! did, and its give-ups are errors that name the element and the time.
+
+use truss_deploy::model::generate::{self, MastParams};
+use truss_deploy::model::parse;
+use truss_deploy::solver::{Model, Options, Simulator, SolverError, SolverSettings};
+
+fn mast_model() -> Model {
+    let text = generate::mast(&MastParams::default())
+        .expect("valid params")
+        .to_toml();
+    parse(&text, "mast.toml")
+        .expect("generated model loads")
+        .model
+}
+
+/// Steps the mast until it deploys (Ok) or a step fails (Err), at most
+/// `max_steps` steps.
+fn run(settings: SolverSettings, max_steps: usize) -> (Simulator, Result<(), SolverError>) {
+    let mut m = mast_model();
+    m.solver = settings;
+    let mut sim = Simulator::new(m, Options::default()).expect("simulator");
+    let dt = sim.model().dt_s;
+    for _ in 0..max_steps {
+        if sim.state().deployed {
+            return (sim, Ok(()));
+        }
+        if let Err(e) = sim.step(dt) {
+            return (sim, Err(e));
+        }
+    }
+    panic!("neither deployed nor failed in {max_steps} steps");
+}
+
+#[test]
+fn counters_match_the_run() {
+    let (sim, r) = run(SolverSettings::default(), 2000);
+    r.expect("the mast deploys with the default settings");
+    let (st, s) = (sim.solver_stats(), sim.state());
+    assert_eq!(st.steps, s.steps);
+    assert_eq!(st.latches, s.locks.len() as u64);
+    assert_eq!(s.locks.len(), sim.model().locks.len());
+    assert!(st.substeps >= st.steps + st.latches, "{st:?}");
+    assert!(st.newmark_steps >= st.substeps, "{st:?}");
+    assert!(st.newmark_iterations >= 2 * st.newmark_steps, "{st:?}");
+    assert!(st.latch_searches >= 1 && st.latch_search_steps >= st.latch_searches);
+    assert_eq!(
+        sim.factorizations(),
+        st.factorizations + st.factorizations_reused
+    );
+    assert!(st.solves >= st.newmark_iterations, "{st:?}");
+}
+
+#[test]
+fn a_latch_search_at_its_iteration_limit_is_an_error_naming_the_sleeve() {
+    let settings = SolverSettings {
+        root_max_iterations: 1,
+        ..SolverSettings::default()
+    };
+    let (sim, r) = run(settings, 2000);
+    let e = r.expect_err("one Illinois iteration cannot locate a latch to 1e-9 m");
+    let SolverError::LatchSearch {
+        element,
+        t_s,
+        gap_m,
+        iterations,
+    } = &e
+    else {
+        panic!("expected a latch search error, got: {e}");
+    };
+    assert_eq!(*iterations, 1);
+    assert!(gap_m.abs() > 1e-9, "{e}");
+    assert!(
+        sim.model()
+            .locks
+            .iter()
+            .any(|&k| sim.model().elements[k].name() == element),
+        "{e}"
+    );
+    assert!(*t_s > sim.state().t_s, "{e}");
+    let msg = e.to_string();
+    assert!(
+        msg.contains(element.as_str()) && msg.contains("root_max_iterations"),
+        "{msg}"
+    );
+}
+
+#[test]
+fn a_newmark_iteration_limit_halves_sub_steps_then_reports() {
+    // Two fixed-point iterations never meet 1e-12: every sub-step is halved
+    // down to the smallest, then the step fails with the time named.
+    let settings = SolverSettings {
+        newmark_max_iterations: 2,
+        ..SolverSettings::default()
+    };
+    let (sim, r) = run(settings, 10);
+    let e = r.expect_err("two iterations cannot converge");
+    assert!(matches!(e, SolverError::NoConvergence { .. }), "{e}");
+    // 1/1024 of the step is reached by ten halvings
+    assert_eq!(sim.solver_stats().fallbacks.substep_halvings, 10);
+}
+
+#[test]
+fn invalid_settings_are_rejected_by_name() {
+    let mut m = mast_model();
+    m.solver.projection_tol_m = -1.0;
+    let e = Simulator::new(m, Options::default())
+        .err()
+        .expect("a negative tolerance is rejected");
+    assert!(e.to_string().contains("projection_tol_m"), "{e}");
+}
