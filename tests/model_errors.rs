@@ -433,7 +433,7 @@ fn cases() -> Vec<Case> {
                 "friction_mu = 0.005\n",
                 "friction_mu = 0.005\n\n[solver]\nroot_max_iterations = 0\n",
             )],
-            Loc::Line("root_max_iterations"),
+            Loc::Table("root_max_iterations"),
             &["[solver] root_max_iterations = 0", "at least 1"],
         ),
         case(
@@ -442,7 +442,7 @@ fn cases() -> Vec<Case> {
                 "friction_mu = 0.005\n",
                 "friction_mu = 0.005\n\n[solver]\nlock_tol_m = nan\n",
             )],
-            Loc::Line("lock_tol_m"),
+            Loc::Table("lock_tol_m"),
             &["[solver] lock_tol_m = NaN", "finite number > 0"],
         ),
         Case {
