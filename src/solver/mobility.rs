@@ -39,7 +39,7 @@ pub fn analyze(model: &Model, x: &[f64], locked: &[bool]) -> Mobility {
     let r = rank(&jac);
     let dense = jac.to_dense();
     // Greedy row selection with a Gram-Schmidt basis: a row is redundant if it
-    // lies (to RANK_TOL) in the span of the rows before it.
+    // lies (to ROW_SINE_TOL) in the span of the rows before it.
     let mut basis: Vec<nalgebra::DVector<f64>> = Vec::new();
     let mut redundant = Vec::new();
     for row in 0..jac.nrows {
@@ -51,7 +51,7 @@ pub fn analyze(model: &Model, x: &[f64], locked: &[bool]) -> Mobility {
                 w.axpy(-p, q, 1.0);
             }
         }
-        if w.norm() > 1e-8 * norm0.max(1e-300) {
+        if !super::rank::row_is_redundant(w.norm_squared() / norm0.max(1e-300).powi(2)) {
             basis.push(w.normalize());
         } else {
             let (e, local) = jac.row_owner(row);

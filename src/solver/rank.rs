@@ -11,16 +11,33 @@
 //! six orders of margin on either side.
 //!
 //! Rows. A row is redundant when its component outside the span of the rows
-//! before it is at most `ROW_SINE_TOL` of its length (the sine of the angle
-//! between the row and that span). `analyze` lists redundant rows by this
-//! test (Gram-Schmidt); the sparse backend's probe applies the same test to
-//! the pivots of the unit-diagonal S~ = D^-1/2 A M^-1 A^T D^-1/2, which are
-//! the squared sines for a diagonal M (`ROW_SINE_TOL`^2 there).
+//! before it is at most 1e-5 of its length (the sine of the angle between
+//! the row and that span; `ROW_SINE_SQ_TOL` is its square). `analyze` lists
+//! redundant rows by this test (Gram-Schmidt); the sparse backend's probe
+//! applies it to the pivots of the unit-diagonal S~ = D^-1/2 A M^-1 A^T
+//! D^-1/2, which are those squared sines in the M^-1 inner product (equal
+//! to the plain ones where the joints a row touches have equal masses).
+//! A sine of 1e-5 is a singular value of at most 1e-5 |row|: a row the SVD
+//! counts as independent (sigma > 1e-9 sigma_max) may thus be called
+//! redundant by the row test only in a truss with a singular value between
+//! 1e-9 and 1e-5 of the largest, i.e. nearly singular (see
+//! `ConstraintSolver::pivot_rank`).
 
 use super::jacobian::Jacobian;
 
 /// Relative singular-value threshold of the rank decision.
 pub const RANK_TOL: f64 = 1e-9;
+
+/// A row whose component outside the span of the rows before it is at most
+/// 1e-5 of its length is redundant: this is the square of that sine.
+pub const ROW_SINE_SQ_TOL: f64 = 1e-10;
+
+/// Whether a row with squared sine `sine_sq` to the span of the rows before
+/// it (a pivot of the unit-diagonal S~, or |w|^2 / |row|^2 after
+/// Gram-Schmidt) is redundant.
+pub fn row_is_redundant(sine_sq: f64) -> bool {
+    sine_sq <= ROW_SINE_SQ_TOL
+}
 
 /// Number of singular values above `RANK_TOL` times the largest.
 pub fn numerical_rank(singular_values: &[f64]) -> usize {

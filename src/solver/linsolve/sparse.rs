@@ -69,10 +69,11 @@ use faer::{Conj, MatMut, Par, Side};
 
 /// Regularization relative to the largest diagonal entry of S (minimum-norm solves).
 pub const REG_REL: f64 = 1e-10;
-/// A pivot of the unit-diagonal S~ below this marks a redundant row: the row's
-/// component outside the span of the rows before it is below 1e-5 of its
-/// length. Roundoff leaves ~1e-14 on truly redundant rows.
-pub const REJECT_TOL: f64 = 1e-10;
+/// A pivot of the unit-diagonal S~ below this marks a redundant row: the
+/// pivot is the squared sine of the angle between the row and the span of the
+/// rows before it, so this is the one row decision of `crate::solver::rank`
+/// (a sine of 1e-5). Roundoff leaves ~1e-14 on truly redundant rows.
+pub const REJECT_TOL: f64 = crate::solver::rank::ROW_SINE_SQ_TOL;
 /// The pivot given to a rejected row: its multiplier and couplings become
 /// ~1 / REJECT_DELTA of the others'.
 const REJECT_DELTA: f64 = 1e24;

@@ -285,3 +285,35 @@ impl Simulator {
         )
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::{crossed_unlatched, gap};
+    use crate::model::generate::{self, MastParams};
+
+    /// The missed-latch check: a sleeve whose gap changed sign beyond the
+    /// tolerance is found unless it is locked, excepted, or within tolerance.
+    #[test]
+    fn a_sleeve_past_its_lock_is_found() {
+        let text = generate::mast(&MastParams::default()).unwrap().to_toml();
+        let m = crate::model::parse(&text, "mast.toml").unwrap().model;
+        let x0 = m.x0.clone();
+        // stretch the folded mast along z: every sleeve ends past its lock
+        let x1: Vec<f64> = x0
+            .iter()
+            .enumerate()
+            .map(|(i, v)| if i % 3 == 2 { 20.0 * v } else { *v })
+            .collect();
+        let mut locked = vec![false; m.elements.len()];
+        let e = crossed_unlatched(&m, &locked, &x0, &x1, 1e-9, None).expect("a crossing");
+        assert!(gap(&m, e, &x0) < 0.0 && gap(&m, e, &x1) > 1e-9);
+        assert_eq!(crossed_unlatched(&m, &locked, &x0, &x0, 1e-9, None), None);
+        let other = crossed_unlatched(&m, &locked, &x0, &x1, 1e-9, Some(e));
+        assert!(other.is_some_and(|o| o != e));
+        assert_eq!(crossed_unlatched(&m, &locked, &x0, &x1, 1e3, None), None);
+        for &k in &m.locks {
+            locked[k] = true;
+        }
+        assert_eq!(crossed_unlatched(&m, &locked, &x0, &x1, 1e-9, None), None);
+    }
+}

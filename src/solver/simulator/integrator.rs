@@ -148,15 +148,21 @@ impl Core {
         self.implicit_h = None;
         self.lagged_friction = false;
         iterated?;
+        self.newmark_update(s, h);
+        self.project_positions(model, st, base)?;
+        self.factor(model, base)?;
+        self.project_velocities(model, st, base)?;
+        self.accelerations(model, cmd, None)
+    }
+
+    /// The trial (x, v) from the step start `s` and A_{n+1} = `a_guess`:
+    /// X_{n+1} = X_n + h V_n + h^2/4 (A_n + A_{n+1}), V_{n+1} = V_n + h/2 (A_n + A_{n+1}).
+    fn newmark_update(&mut self, s: &State, h: f64) {
         for i in 0..self.x.len() {
             let asum = s.a[i] + self.a_guess[i];
             self.x[i] = s.x[i] + h * s.v[i] + 0.25 * h * h * asum;
             self.v[i] = s.v[i] + 0.5 * h * asum;
         }
-        self.project_positions(model, st, base)?;
-        self.factor(model, base)?;
-        self.project_velocities(model, st, base)?;
-        self.accelerations(model, cmd, None)
     }
 
     /// The fixed-point iteration of A_{n+1} (converged value in `a_guess`).
@@ -192,11 +198,7 @@ impl Core {
         let (mut best_change, mut no_progress) = (f64::INFINITY, 0);
         for _ in 0..st.newmark_max_iterations {
             self.stats.newmark_iterations += 1;
-            for i in 0..self.x.len() {
-                let asum = s.a[i] + self.a_guess[i];
-                self.x[i] = s.x[i] + h * s.v[i] + 0.25 * h * h * asum;
-                self.v[i] = s.v[i] + 0.5 * h * asum;
-            }
+            self.newmark_update(s, h);
             self.accelerations(model, cmd, Some(mode))?;
             let mut change = 0.0f64;
             let mut scale = amax;
