@@ -381,7 +381,7 @@ mod tests {
             while !sim.state().deployed {
                 sim.step(0.05).expect("step");
             }
-            let lambda = sim.min_norm_multipliers().expect("multipliers");
+            let lambda = sim.least_work_multipliers().expect("multipliers");
             let js = view.joint_state(&sim, &lambda, sim_stamp(sim.state().t_s), "world");
             let sleeves: Vec<f64> = js
                 .name

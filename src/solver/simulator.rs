@@ -23,6 +23,7 @@
 
 use super::cable::{self, CableEval};
 use super::jacobian::Jacobian;
+use super::least_work::LeastWork;
 use super::linsolve::{ConstraintSolver, SolverKind};
 use super::model::Model;
 use super::state::{Energy, LockEvent, State};
@@ -99,9 +100,9 @@ struct Core {
     prev_h: Option<f64>,
     a_prev2: Vec<f64>,
     prev_h2: Option<f64>,
-    /// The backend that computes minimum-norm multipliers on request
-    /// (`Simulator::min_norm_multipliers`), made at the first request.
-    aux_solver: Option<Box<dyn ConstraintSolver>>,
+    /// The least-work split of redundant multipliers (member forces on
+    /// request, latch impulses), with a backend of its own; made at first use.
+    least_work: Option<LeastWork>,
 }
 
 impl Core {
@@ -138,7 +139,7 @@ impl Core {
             prev_h: None,
             a_prev2: vec![0.0; n],
             prev_h2: None,
-            aux_solver: None,
+            least_work: None,
         }
     }
 
@@ -358,42 +359,27 @@ impl Core {
         }
     }
 
-    /// The minimum-norm multipliers S^+ (A M^-1 A^T lambda) of the state
-    /// (x, lambda) into `mu`: the same joint forces A^T lambda, split among
-    /// redundant rows by least squares. Returns false (and leaves `mu`) where
-    /// the backend's multipliers are minimum-norm already.
-    fn min_norm_multipliers(
+    /// The least-work split (into `mu`) of the joint forces held in `dx`
+    /// among the rows of the Jacobian as last filled (`least_work`): member
+    /// forces, or latch impulses from the joint impulses of a velocity jump.
+    fn least_work_split(&mut self, model: &Model, kind: SolverKind) -> Result<(), SolverError> {
+        let lw = self.least_work.get_or_insert_with(|| LeastWork::new(kind));
+        lw.multipliers(model, &self.jac, &self.dx, &mut self.mu)
+    }
+
+    /// The state's (x, lambda) multipliers with the same joint forces
+    /// A^T lambda, split among redundant rows by least work, into `mu`.
+    fn least_work_multipliers(
         &mut self,
         model: &Model,
         kind: SolverKind,
         x: &[f64],
         lambda: &[f64],
-    ) -> Result<bool, SolverError> {
-        // A second instance of the backend does the least-squares solve, so
-        // the stepping solver's kept factorizations, counters and re-probe
-        // schedule stay as they were: the trajectory does not depend on how
-        // often this is called (the node calls it at its publish rate).
-        let aux = self.aux_solver.get_or_insert_with(|| kind.make());
-        if !aux.set_min_norm(true) {
-            return Ok(false);
-        }
+    ) -> Result<(), SolverError> {
         self.x.copy_from_slice(x);
         self.jac.fill(model, &self.x);
-        // r = S lambda, consistent by construction
-        self.jac.mul_t(lambda, &mut self.dx);
-        for (d, w) in self.dx.iter_mut().zip(&model.inv_mass) {
-            *d *= w;
-        }
-        self.jac.mul(&self.dx, &mut self.r);
-        aux.factor(&self.jac, &model.inv_mass)?;
-        aux.correction(
-            &self.jac,
-            &model.inv_mass,
-            &self.r,
-            &mut self.dx,
-            &mut self.mu,
-        );
-        Ok(true)
+        self.jac.mul_t(lambda, &mut self.dx); // f = A^T lambda
+        self.least_work_split(model, kind)
     }
 
     /// One Newmark step of length h from `s` into the trial state.
@@ -681,19 +667,18 @@ impl Simulator {
         self.core.solver.diagnostics()
     }
 
-    /// The state's multipliers with the minimum-norm split among redundant
-    /// rows (member forces of a statically indeterminate latched truss, e.g.
-    /// sleeves that latched together): solver-independent. The sparse
-    /// backend's `State::lambda` gives the whole share to the rows it keeps
-    /// (same joint forces); this costs one least-squares solve there and
-    /// nothing with the dense backend, whose multipliers are minimum-norm.
-    pub fn min_norm_multipliers(&mut self) -> Result<Vec<f64>, SolverError> {
+    /// The state's multipliers (member forces, N, tension positive, row
+    /// order of the current Jacobian) with redundant rows sharing by least
+    /// work: among all multipliers with the state's joint forces A^T lambda,
+    /// the one minimizing sum L_i/(EA_i) lambda_i^2 (`least_work`).
+    /// Solver-independent (the sparse backend's `State::lambda` gives the
+    /// whole share to the rows it keeps); one least-squares solve with a
+    /// backend of its own, so the trajectory does not depend on how often it
+    /// is called (the node calls it at its publish rate).
+    pub fn least_work_multipliers(&mut self) -> Result<Vec<f64>, SolverError> {
         let (model, core, s) = (&self.model, &mut self.core, &self.state);
-        if core.min_norm_multipliers(model, self.opts.solver, &s.x, &s.lambda)? {
-            Ok(core.mu.clone())
-        } else {
-            Ok(s.lambda.clone())
-        }
+        core.least_work_multipliers(model, self.opts.solver, &s.x, &s.lambda)?;
+        Ok(core.mu.clone())
     }
 
     /// Sets a cable's motor-end tension from the next step on.
@@ -1112,6 +1097,13 @@ impl Simulator {
         // A basic factorization of the new locked set at the latched state (the
         // next step starts from it): its probe counts the rank for large models.
         core.factor(model)?;
+        // Impulses: the joint impulses of the jump, M (V- - V+) = A^T P, split
+        // among the rows by least work (simultaneous latches of redundant
+        // members share by stiffness, not by an arbitrary minimum norm).
+        for i in 0..core.dx.len() {
+            core.dx[i] = model.mass[i] * (self.state.v[i] - core.v[i]);
+        }
+        core.least_work_split(model, self.opts.solver)?;
         let ke_before = self.state.kinetic_energy_j(model);
         let t = self.state.t_s;
         for &e in &newly {

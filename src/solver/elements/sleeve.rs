@@ -11,6 +11,8 @@ pub struct Sleeve {
     name: String,
     joints: [usize; 2],
     pub lock_length_m: f64,
+    /// EA of the latched member (N); the model's default when None.
+    pub axial_stiffness_n: Option<f64>,
 }
 
 impl Sleeve {
@@ -19,6 +21,7 @@ impl Sleeve {
             name: name.to_string(),
             joints: [a, b],
             lock_length_m,
+            axial_stiffness_n: None,
         }
     }
     fn row(&self) -> Distance {
@@ -32,7 +35,7 @@ impl Sleeve {
 
 pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, String> {
     spec.expect_joints(2, "its two end joints")?;
-    spec.only_params(&["lock_length_m"])?;
+    spec.only_params(&["lock_length_m", super::AXIAL_STIFFNESS_KEY])?;
     let (a, b) = (spec.joints[0], spec.joints[1]);
     let l0 = (at(x0, b) - at(x0, a)).norm();
     if l0 <= 1e-9 {
@@ -46,7 +49,10 @@ pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, Stri
     if lock <= 1e-9 {
         return Err(format!("`lock_length_m` = {lock} must be positive"));
     }
-    Ok(Box::new(Sleeve::new(&spec.name, a, b, lock)))
+    Ok(Box::new(Sleeve {
+        axial_stiffness_n: spec.axial_stiffness()?,
+        ..Sleeve::new(&spec.name, a, b, lock)
+    }))
 }
 
 impl Constraint for Sleeve {
@@ -62,6 +68,11 @@ impl Constraint for Sleeve {
     }
     fn adot_xdot(&self, x: &[f64], v: &[f64], out: &mut [f64]) {
         out[0] = self.row().adot_xdot(x, v);
+    }
+    fn row_compliance_m_per_n(&self, _locked: bool, ea_default_n: f64, out: &mut [f64]) {
+        if let Some(c) = out.first_mut() {
+            *c = super::member_compliance(self.lock_length_m, self.axial_stiffness_n, ea_default_n);
+        }
     }
     fn lock_gap(&self, x: &[f64]) -> Option<f64> {
         Some(self.row().residual(x))
