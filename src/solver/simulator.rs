@@ -26,7 +26,7 @@ use super::jacobian::Jacobian;
 use super::least_work::LeastWork;
 use super::linsolve::{ConstraintSolver, SolverKind};
 use super::model::Model;
-use super::state::{Energy, LockEvent, State};
+use super::state::{Energy, LatchTransient, LockEvent, State};
 use super::SolverError;
 
 #[derive(Clone, Debug)]
@@ -41,6 +41,18 @@ pub struct Options {
     pub max_newmark_iters: usize,
     /// An initial geometry whose residual exceeds this is rejected (m).
     pub initial_tol_m: f64,
+    /// Steps per period bound of an engaged compliant latch until its force
+    /// has peaked (the step is cut to period / this): the damped peak force
+    /// converges as h^2, 5.8e-4 off at 40, 1.5e-4 at 80 (closed-form test).
+    pub latch_steps_per_period: f64,
+    /// Steps per period bound after the peak, while the transient settles.
+    pub latch_settle_steps_per_period: f64,
+    /// A compliant latch has settled (and turns rigid) once its force varied
+    /// by less than this fraction of its peak over one period.
+    pub latch_settle_rel: f64,
+    /// A compliant latch turns rigid after at most this many periods, settled
+    /// or not (the oscillation left is taken by the rigid latch).
+    pub latch_max_periods: f64,
 }
 
 impl Default for Options {
@@ -52,6 +64,10 @@ impl Default for Options {
             root_tol_m: 1e-13,
             max_newmark_iters: 60,
             initial_tol_m: 1e-6,
+            latch_steps_per_period: 128.0,
+            latch_settle_steps_per_period: 20.0,
+            latch_settle_rel: 1e-3,
+            latch_max_periods: 50.0,
         }
     }
 }
@@ -103,6 +119,8 @@ struct Core {
     /// The least-work split of redundant multipliers (member forces on
     /// request, latch impulses), with a backend of its own; made at first use.
     least_work: Option<LeastWork>,
+    /// Engaged compliant latches: (element, k in N/m, c in N s/m).
+    springs: Vec<(usize, f64, f64)>,
 }
 
 impl Core {
@@ -140,6 +158,7 @@ impl Core {
             a_prev2: vec![0.0; n],
             prev_h2: None,
             least_work: None,
+            springs: Vec::new(),
         }
     }
 
@@ -182,6 +201,22 @@ impl Core {
                 &mut self.cables[ci],
             );
             cable::add_forces(c, &self.cables[ci], &self.x, &mut self.q);
+        }
+        // Engaged compliant latches: tension T = k (l - L) + c ldot along the
+        // sleeve, pulling its joints together when positive.
+        for &(e, k, c) in &self.springs {
+            let el = &model.elements[e];
+            let (Some(g), Some((l, rate))) = (el.lock_gap(&self.x), el.extension(&self.x, &self.v))
+            else {
+                continue;
+            };
+            let t = k * g + c * rate;
+            let (ja, jb) = (el.joints()[0], el.joints()[1]);
+            for k3 in 0..3 {
+                let f = t * (self.x[3 * jb + k3] - self.x[3 * ja + k3]) / l;
+                self.q[3 * ja + k3] += f;
+                self.q[3 * jb + k3] -= f;
+            }
         }
         let g = model.gravity_m_s2;
         let damp_v = if self.implicit_h.is_some() {
@@ -777,7 +812,9 @@ impl Simulator {
                     "too many sub-steps or latch events inside one step".into(),
                 ));
             }
-            let h = h_try.min(t_end - self.state.t_s);
+            let h = h_try
+                .min(t_end - self.state.t_s)
+                .min(self.transient_step_s());
             match self.core.newmark(&self.model, &self.state, h, &self.opts) {
                 Err(SolverError::NoConvergence { .. }) if h > dt * MIN_SUBSTEP => {
                     h_try = 0.5 * h;
@@ -793,6 +830,7 @@ impl Simulator {
             loop {
                 let Some((target, s_hi)) = self.first_crossing(h, &not_real) else {
                     self.accept(h);
+                    events += self.settle_transients()?;
                     break;
                 };
                 if s_hi < 1.0 {
@@ -807,6 +845,7 @@ impl Simulator {
                 match located? {
                     Some(h_star) => {
                         self.accept(h_star);
+                        self.settle_transients()?;
                         events += self.latch()?;
                         break;
                     }
@@ -834,7 +873,7 @@ impl Simulator {
         let (s, c) = (&self.state, &self.core);
         let mut best: Option<(f64, usize, f64)> = None;
         for &e in &self.model.locks {
-            if s.locked[e] {
+            if s.locked[e] || self.engaged(e) {
                 continue;
             }
             let (g0, g1) = (gap(&self.model, e, &s.x), gap(&self.model, e, &c.x));
@@ -1007,7 +1046,7 @@ impl Simulator {
     fn crossed_by(&self, _m: f64, target: usize) -> Option<usize> {
         let (s, c) = (&self.state, &self.core);
         self.model.locks.iter().copied().find(|&e| {
-            if e == target || s.locked[e] {
+            if e == target || s.locked[e] || self.engaged(e) {
                 return false;
             }
             let (g0, g1) = (gap(&self.model, e, &s.x), gap(&self.model, e, &c.x));
@@ -1023,26 +1062,40 @@ impl Simulator {
         self.core.prev_h = Some(h);
         let (m, s, c) = (&self.model, &mut self.state, &self.core);
         let e = &mut s.energy;
-        for (ci, cab) in m.cables.iter().enumerate() {
-            let (old, new) = (&s.cables[ci], &c.cables[ci]);
-            // motor tension is the command, constant over the step: exact work
-            e.motor_work_j += s.cable_tension_cmd_n[ci] * (old.length_m - new.length_m);
-            let mut seg_work = 0.0;
-            for j in 0..cab.path.len() - 1 {
-                seg_work -= 0.5
-                    * (old.segment_tension_n[j] + new.segment_tension_n[j])
-                    * (new.segment_length_m[j] - old.segment_length_m[j]);
-            }
-            e.cable_work_j += seg_work;
-            e.friction_loss_j +=
-                s.cable_tension_cmd_n[ci] * (old.length_m - new.length_m) - seg_work;
-        }
-        let g = m.gravity_m_s2;
+        book_drive_work(
+            m,
+            e,
+            &s.cable_tension_cmd_n,
+            &s.cables,
+            &c.cables,
+            &s.x,
+            &c.x,
+        );
         for i in 0..s.x.len() {
             let dx = c.x[i] - s.x[i];
             e.damping_loss_j += m.damping_n_s_per_m * 0.5 * (s.v[i] + c.v[i]) * dx;
-            e.gravity_work_j += m.mass[i] * g[i % 3] * dx;
         }
+        // Compliant latches: the damper's work c ldot dl by the trapezoid, as
+        // the joint damping above; the spring's energy 1/2 k g^2 is exact.
+        // Per latch, its force impulse (trapezoid of T) and dissipation.
+        e.latch_spring_energy_j = 0.0;
+        for tr in &mut s.transients {
+            let elem = &m.elements[tr.element];
+            let (Some((l0, r0)), Some((l1, r1)), Some(g1)) = (
+                elem.extension(&s.x, &s.v),
+                elem.extension(&c.x, &c.v),
+                elem.lock_gap(&c.x),
+            ) else {
+                continue;
+            };
+            let (k, cd) = (tr.stiffness_n_per_m, tr.damping_n_s_per_m);
+            let dissipated = cd * 0.5 * (r0 + r1) * (l1 - l0);
+            e.latch_damping_loss_j += dissipated;
+            tr.dissipated_j += dissipated;
+            tr.impulse_ns += 0.5 * h * (tr.force_n + k * g1 + cd * r1);
+            e.latch_spring_energy_j += 0.5 * k * g1 * g1;
+        }
+        let t0 = s.t_s;
         s.t_s += h;
         s.x.copy_from_slice(&c.x);
         s.v.copy_from_slice(&c.v);
@@ -1052,10 +1105,109 @@ impl Simulator {
             o.clone_from(n);
         }
         s.max_violation_m = s.max_violation_m.max(c.violation_m);
+        for tr in &mut s.transients {
+            let settle_rel = self.opts.latch_settle_rel;
+            track_transient(
+                m,
+                tr,
+                &mut s.locks[tr.event],
+                t0,
+                h,
+                &s.x,
+                &s.v,
+                &s.a,
+                settle_rel,
+            );
+        }
     }
 
-    /// Latches every sleeve at its design length (within the latch tolerance),
-    /// applies the inelastic latch to the velocities and records the events.
+    /// Whether a sleeve's compliant latch is engaged (its transient lasts).
+    fn engaged(&self, e: usize) -> bool {
+        self.state.transients.iter().any(|t| t.element == e)
+    }
+
+    /// Longest step that resolves every engaged compliant latch's period.
+    fn transient_step_s(&self) -> f64 {
+        self.state
+            .transients
+            .iter()
+            .map(|t| {
+                t.period_s
+                    / if self.state.locks[t.event].peak_force_n.is_some() {
+                        self.opts.latch_settle_steps_per_period
+                    } else {
+                        self.opts.latch_steps_per_period
+                    }
+            })
+            .fold(f64::INFINITY, f64::min)
+    }
+
+    /// Turns rigid the compliant latches whose transient is over: the force
+    /// varied by less than `latch_settle_rel` of its peak over the last
+    /// period, or `latch_max_periods` have passed. The joints move onto the
+    /// lock length (by the latch's deflection, k g = T), the velocities onto
+    /// the rigid manifold; the spring's energy and what the rigid latch takes
+    /// are booked as latch loss. Returns how many turned rigid.
+    fn settle_transients(&mut self) -> Result<usize, SolverError> {
+        let (t, opts) = (self.state.t_s, &self.opts);
+        let due: Vec<usize> = self
+            .state
+            .transients
+            .iter()
+            .filter(|tr| {
+                let ev = &self.state.locks[tr.event];
+                let window_done = t >= tr.window_end_s - 1e-12 * tr.period_s;
+                let calm = ev.peak_force_n.is_some_and(|p| {
+                    tr.window_max_n - tr.window_min_n <= opts.latch_settle_rel * p
+                });
+                (window_done && calm) || t - tr.engaged_at_s >= opts.latch_max_periods * tr.period_s
+            })
+            .map(|tr| tr.element)
+            .collect();
+        if due.is_empty() {
+            // a new window for those whose window ended
+            for tr in &mut self.state.transients {
+                if t >= tr.window_end_s - 1e-12 * tr.period_s {
+                    let f = tr.sign * tr.force_n;
+                    (tr.window_max_n, tr.window_min_n) = (f, f);
+                    tr.window_end_s += tr.period_s;
+                }
+            }
+            return Ok(0);
+        }
+        // per latch: the force impulse and dissipation of its transient, and
+        // the elastic energy 1/2 k g^2 it releases turning rigid
+        let mut settled: Vec<(usize, f64, f64)> = Vec::with_capacity(due.len());
+        for &e in &due {
+            let tr = self
+                .state
+                .transients
+                .iter()
+                .find(|tr| tr.element == e)
+                .unwrap();
+            let g = gap(&self.model, e, &self.state.x);
+            let spring_j = 0.5 * tr.stiffness_n_per_m * g * g;
+            self.state.energy.latch_spring_energy_j -= spring_j;
+            self.state.energy.lock_loss_j += spring_j;
+            settled.push((tr.event, tr.impulse_ns, tr.dissipated_j + spring_j));
+        }
+        self.state
+            .transients
+            .retain(|tr| !due.contains(&tr.element));
+        self.core.springs.retain(|s| !due.contains(&s.0));
+        let jumps = self.lock_rigidly(&due)?;
+        for ((event, impulse_ns, lost_j), (impulse, lost, _)) in settled.into_iter().zip(jumps) {
+            let ev = &mut self.state.locks[event];
+            ev.impulse_ns = impulse_ns + impulse;
+            ev.energy_lost_j = lost_j + lost;
+        }
+        Ok(due.len())
+    }
+
+    /// Latches every sleeve at its design length (within the latch tolerance):
+    /// rigid latches by the inelastic velocity jump, recorded as events;
+    /// compliant ones engage as spring-dampers (their transient then runs in
+    /// the following steps). Returns the number of latch events.
     fn latch(&mut self) -> Result<usize, SolverError> {
         let model = &self.model;
         let newly: Vec<usize> = model
@@ -1064,6 +1216,7 @@ impl Simulator {
             .copied()
             .filter(|&e| {
                 !self.state.locked[e]
+                    && !self.engaged(e)
                     && gap(model, e, &self.state.x).abs()
                         <= self.opts.lock_tol_m.max(10.0 * self.opts.root_tol_m)
             })
@@ -1071,7 +1224,81 @@ impl Simulator {
         if newly.is_empty() {
             return Ok(0);
         }
-        for &e in &newly {
+        let t = self.state.t_s;
+        let (springy, rigid): (Vec<usize>, Vec<usize>) = newly
+            .iter()
+            .partition(|&&e| model.elements[e].latch_spring().is_some());
+        for &e in &springy {
+            let el = &model.elements[e];
+            let (k, c) = el.latch_spring().unwrap_or_default();
+            let (_, rate) = el
+                .extension(&self.state.x, &self.state.v)
+                .unwrap_or_default();
+            let (ja, jb) = (el.joints()[0], el.joints()[1]);
+            let inv_m = model.inv_mass[3 * ja] + model.inv_mass[3 * jb];
+            let period_s = 2.0 * std::f64::consts::PI / (k * inv_m).sqrt();
+            self.state.locks.push(LockEvent {
+                element: e,
+                name: el.name().to_string(),
+                time_s: t,
+                impulse_ns: 0.0,
+                energy_lost_j: 0.0,
+                closing_speed_m_s: rate,
+                peak_force_n: None,
+                time_of_peak_s: None,
+            });
+            let force_n = c * rate;
+            let sign = if rate >= 0.0 { 1.0 } else { -1.0 };
+            self.state.transients.push(LatchTransient {
+                element: e,
+                event: self.state.locks.len() - 1,
+                stiffness_n_per_m: k,
+                damping_n_s_per_m: c,
+                sign,
+                period_s,
+                engaged_at_s: t,
+                force_n,
+                force_rate_n_s: f64::INFINITY, // rising: the peak is to come
+                window_max_n: sign * force_n,
+                window_min_n: sign * force_n,
+                window_end_s: t + period_s,
+                impulse_ns: 0.0,
+                dissipated_j: 0.0,
+            });
+            self.core.springs.push((e, k, c));
+        }
+        if rigid.is_empty() {
+            // the dampers' force jumps in: accelerations from there
+            self.core.prev_h = None;
+            self.restart_accelerations()?;
+        } else {
+            let jumps = self.lock_rigidly(&rigid)?;
+            for (&e, (impulse_ns, energy_lost_j, rate)) in rigid.iter().zip(jumps) {
+                self.state.locks.push(LockEvent {
+                    element: e,
+                    name: self.model.elements[e].name().to_string(),
+                    time_s: t,
+                    impulse_ns,
+                    energy_lost_j,
+                    closing_speed_m_s: rate,
+                    peak_force_n: None,
+                    time_of_peak_s: None,
+                });
+            }
+        }
+        Ok(newly.len())
+    }
+
+    /// Makes `elements` rigid members (locked) at the current state: positions
+    /// projected onto the new constraint set, velocities jump onto it by the
+    /// mass-orthogonal projection (an inelastic latch), consistent
+    /// accelerations; the kinetic energy taken is booked as latch loss and
+    /// the deployed state is decided. Returns per element its impulse (N s,
+    /// least-work share of the jump), the energy it took (J) and its closing
+    /// rate before (m/s).
+    fn lock_rigidly(&mut self, elements: &[usize]) -> Result<Vec<(f64, f64, f64)>, SolverError> {
+        let model = &self.model;
+        for &e in elements {
             self.state.locked[e] = true;
         }
         let core = &mut self.core;
@@ -1079,11 +1306,9 @@ impl Simulator {
         core.set_pattern(model, &self.state.locked);
         core.x.copy_from_slice(&self.state.x);
         core.v.copy_from_slice(&self.state.v);
-        // Least-squares (minimum-norm) solves through the latch: simultaneous
-        // latches of redundant members share the impulse by the minimum-norm
-        // split (statically indeterminate otherwise), and a truss that latches
-        // into its flat deployed state has rows only nearly redundant there,
-        // on which basic solves are ill-conditioned.
+        // Least-squares (minimum-norm) solves through the latch: a truss that
+        // latches into its flat deployed state has rows only nearly redundant
+        // there, on which basic solves are ill-conditioned.
         let _ = core.solver.set_min_norm(true);
         let settled = (|| {
             core.project_positions(model, self.opts.projection_tol_m, false)?;
@@ -1106,31 +1331,43 @@ impl Simulator {
         core.least_work_split(model, self.opts.solver)?;
         let ke_before = self.state.kinetic_energy_j(model);
         let t = self.state.t_s;
-        for &e in &newly {
-            let b = core
-                .jac
-                .blocks
-                .iter()
-                .find(|b| b.element == e)
-                .expect("latched element has a row");
-            let (mu, rate) = (core.mu[b.row0], core.r[b.row0]);
-            self.state.locks.push(LockEvent {
-                element: e,
-                name: model.elements[e].name().to_string(),
-                time_s: t,
-                impulse_ns: mu.abs(),
-                energy_lost_j: 0.5 * mu * rate,
-                closing_speed_m_s: rate,
-            });
-        }
+        let jumps = elements
+            .iter()
+            .map(|&e| {
+                let b = core
+                    .jac
+                    .blocks
+                    .iter()
+                    .find(|b| b.element == e)
+                    .expect("latched element has a row");
+                let (mu, rate) = (core.mu[b.row0], core.r[b.row0]);
+                (mu.abs(), 0.5 * mu * rate, rate)
+            })
+            .collect();
         let s = &mut self.state;
+        // The projection moves the joints onto the lock length: by roundoff
+        // for a rigid latch found by the root search, by the deflection k g = T
+        // for a compliant one turning rigid. That move takes no time, so the
+        // work the drive and gravity do over it goes with the latch's loss.
+        let moved_j = book_drive_work(
+            model,
+            &mut s.energy,
+            &s.cable_tension_cmd_n,
+            &s.cables,
+            &core.cables,
+            &s.x,
+            &core.x,
+        );
         s.x.copy_from_slice(&core.x);
         s.v.copy_from_slice(&core.v);
         s.a.copy_from_slice(&core.a);
         s.lambda.clone_from(&core.lambda);
+        for (o, n) in s.cables.iter_mut().zip(&core.cables) {
+            o.clone_from(n);
+        }
         s.max_violation_m = s.max_violation_m.max(core.violation_m);
         let ke_after = s.kinetic_energy_j(model);
-        s.energy.lock_loss_j += ke_before - ke_after;
+        s.energy.lock_loss_j += ke_before - ke_after + moved_j;
         self.state.mechanisms = self.mechanisms_now();
         // Rigid before every sleeve latched: trusted from an SVD only (the
         // dense solver's, or one confirming a pivot rank; not past
@@ -1139,14 +1376,153 @@ impl Simulator {
         // deployment) is skipped.
         let deployed = self.all_locked()
             || (self.state.mechanisms == 0
+                && self.state.transients.is_empty()
                 && self.model.n_coords() <= RANK_CHECK_MAX_COORDS
                 && (self.core.solver.rank().is_some()
                     || super::mobility::rank(&self.core.jac) == self.model.n_coords()));
         if deployed {
             self.state.deployed = true;
-            self.state.deploy_time_s.get_or_insert(t);
+            // the instant the last latch engaged: now, or for compliant latches
+            // turning rigid after their transient, when they engaged
+            let settling = elements
+                .iter()
+                .all(|&e| self.state.locks.iter().any(|l| l.element == e));
+            let engaged_s = if settling {
+                self.state
+                    .locks
+                    .iter()
+                    .map(|l| l.time_s)
+                    .fold(f64::NEG_INFINITY, f64::max)
+            } else {
+                t
+            };
+            self.state.deploy_time_s.get_or_insert(engaged_s);
         }
-        Ok(newly.len())
+        Ok(jumps)
+    }
+}
+
+/// Books the work of the drive and of gravity over a move of the joints from
+/// `x_old` to `x_new` (cable readings `old` and `new` at its ends) into the
+/// ledger, and returns it (J): motor work (the command is constant over a
+/// step: exact), the segments' work on the structure by the trapezoid, the
+/// pulley friction as their difference, and gravity's work.
+fn book_drive_work(
+    m: &Model,
+    e: &mut Energy,
+    cmd: &[f64],
+    old: &[CableEval],
+    new: &[CableEval],
+    x_old: &[f64],
+    x_new: &[f64],
+) -> f64 {
+    let mut work_j = 0.0;
+    for (ci, cab) in m.cables.iter().enumerate() {
+        let (old, new) = (&old[ci], &new[ci]);
+        let motor_j = cmd[ci] * (old.length_m - new.length_m);
+        e.motor_work_j += motor_j;
+        let mut seg_work = 0.0;
+        for j in 0..cab.path.len() - 1 {
+            seg_work -= 0.5
+                * (old.segment_tension_n[j] + new.segment_tension_n[j])
+                * (new.segment_length_m[j] - old.segment_length_m[j]);
+        }
+        e.cable_work_j += seg_work;
+        e.friction_loss_j += motor_j - seg_work;
+        work_j += seg_work;
+    }
+    let g = m.gravity_m_s2;
+    for i in 0..x_old.len() {
+        let w = m.mass[i] * g[i % 3] * (x_new[i] - x_old[i]);
+        e.gravity_work_j += w;
+        work_j += w;
+    }
+    work_j
+}
+
+/// After an accepted step from t0 of length h: a compliant latch's tension
+/// and its rate at the new state, the peak of sign * T (the largest force
+/// through the latch) located inside the step on the cubic Hermite
+/// interpolant of T(t) from the values and rates at both ends, and the
+/// extremes over the current window.
+#[allow(clippy::too_many_arguments)]
+fn track_transient(
+    model: &Model,
+    tr: &mut LatchTransient,
+    ev: &mut LockEvent,
+    t0: f64,
+    h: f64,
+    x: &[f64],
+    v: &[f64],
+    a: &[f64],
+    settle_rel: f64,
+) {
+    let el = &model.elements[tr.element];
+    let (Some(g), Some((l, rate))) = (el.lock_gap(x), el.extension(x, v)) else {
+        return;
+    };
+    // l'' = e . (a_b - a_a) + (|v_b - v_a|^2 - (e . (v_b - v_a))^2) / l
+    let (ja, jb) = (el.joints()[0], el.joints()[1]);
+    let (mut e_dot_a, mut w2) = (0.0, 0.0);
+    for k in 0..3 {
+        let e = (x[3 * jb + k] - x[3 * ja + k]) / l;
+        e_dot_a += e * (a[3 * jb + k] - a[3 * ja + k]);
+        w2 += (v[3 * jb + k] - v[3 * ja + k]).powi(2);
+    }
+    let accel = e_dot_a + (w2 - rate * rate) / l;
+    let (k, c) = (tr.stiffness_n_per_m, tr.damping_n_s_per_m);
+    let (f0, fd0) = (tr.sign * tr.force_n, tr.sign * tr.force_rate_n_s);
+    tr.force_n = k * g + c * rate;
+    tr.force_rate_n_s = k * rate + c * accel;
+    let (f1, fd1) = (tr.sign * tr.force_n, tr.sign * tr.force_rate_n_s);
+    tr.window_max_n = tr.window_max_n.max(f1);
+    tr.window_min_n = tr.window_min_n.min(f1);
+    // a maximum inside the step: the Hermite cubic's stationary point
+    // (p'(s) = 0, a quadratic in s), where the rate turns from + to -
+    let mut best = (f1, t0 + h);
+    if fd0 > 0.0 && fd0.is_finite() && fd1 <= 0.0 {
+        // p(s) = h00 f0 + h10 h fd0 + h01 f1 + h11 h fd1
+        // p'(s) = 6(s^2 - s)(f0 - f1) + h fd0 (3s^2 - 4s + 1) + h fd1 (3s^2 - 2s)
+        let (qa, qb, qc) = (
+            6.0 * (f0 - f1) + 3.0 * h * (fd0 + fd1),
+            -6.0 * (f0 - f1) - 4.0 * h * fd0 - 2.0 * h * fd1,
+            h * fd0,
+        );
+        let p = |s: f64| {
+            let (s2, s3) = (s * s, s * s * s);
+            (2.0 * s3 - 3.0 * s2 + 1.0) * f0
+                + (s3 - 2.0 * s2 + s) * h * fd0
+                + (-2.0 * s3 + 3.0 * s2) * f1
+                + (s3 - s2) * h * fd1
+        };
+        let disc = qb * qb - 4.0 * qa * qc;
+        let mut roots = Vec::with_capacity(2);
+        if qa.abs() <= 1e-300 {
+            if qb != 0.0 {
+                roots.push(-qc / qb);
+            }
+        } else if disc >= 0.0 {
+            let sq = disc.sqrt();
+            roots.push((-qb - sq) / (2.0 * qa));
+            roots.push((-qb + sq) / (2.0 * qa));
+        }
+        for s in roots.into_iter().filter(|s| (0.0..=1.0).contains(s)) {
+            if p(s) > best.0 {
+                best = (p(s), t0 + s * h);
+            }
+        }
+    }
+    // reported once the force has turned (the peak is past); a later maximum
+    // replaces it only where it exceeds it by more than `settle_rel` (an
+    // undamped latch repeats its first peak every period, to roundoff)
+    let turned = ev.peak_force_n.is_some() || fd1 <= 0.0;
+    if turned
+        && ev
+            .peak_force_n
+            .map_or(true, |p| best.0 > p * (1.0 + settle_rel))
+    {
+        ev.peak_force_n = Some(best.0);
+        ev.time_of_peak_s = Some(best.1);
     }
 }
 
@@ -1163,6 +1539,7 @@ fn blank_state(model: &Model) -> State {
         lambda: Vec::new(),
         energy: Energy::default(),
         locks: Vec::new(),
+        transients: Vec::new(),
         max_violation_m: 0.0,
         mechanisms: 0,
         deployed: false,

@@ -149,6 +149,13 @@ pub trait Constraint: Send + Sync + fmt::Debug {
     fn row_compliance_m_per_n(&self, _locked: bool, _ea_default_n: f64, out: &mut [f64]) {
         out.fill(f64::NAN);
     }
+    /// For lockable elements with a compliant latch: its stiffness k (N/m)
+    /// and damping c (N s/m). Engaged, the latch is a spring-damper about the
+    /// lock length, tension T = k (l - L_lock) + c ldot, until its transient
+    /// settles and it turns rigid. None: a rigid latch (an inelastic impact).
+    fn latch_spring(&self) -> Option<(f64, f64)> {
+        None
+    }
     /// For lockable elements: the current length and its rate (m, m/s), used to
     /// publish sleeves as prismatic joints.
     fn extension(&self, _x: &[f64], _v: &[f64]) -> Option<(f64, f64)> {

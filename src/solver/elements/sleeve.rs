@@ -13,6 +13,8 @@ pub struct Sleeve {
     pub lock_length_m: f64,
     /// EA of the latched member (N); the model's default when None.
     pub axial_stiffness_n: Option<f64>,
+    /// Compliant latch: stiffness (N/m) and damping (N s/m); rigid when None.
+    pub latch_spring: Option<(f64, f64)>,
 }
 
 impl Sleeve {
@@ -22,6 +24,7 @@ impl Sleeve {
             joints: [a, b],
             lock_length_m,
             axial_stiffness_n: None,
+            latch_spring: None,
         }
     }
     fn row(&self) -> Distance {
@@ -35,7 +38,12 @@ impl Sleeve {
 
 pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, String> {
     spec.expect_joints(2, "its two end joints")?;
-    spec.only_params(&["lock_length_m", super::AXIAL_STIFFNESS_KEY])?;
+    spec.only_params(&[
+        "lock_length_m",
+        super::AXIAL_STIFFNESS_KEY,
+        "latch_stiffness_n_per_m",
+        "latch_damping_n_s_per_m",
+    ])?;
     let (a, b) = (spec.joints[0], spec.joints[1]);
     let l0 = (at(x0, b) - at(x0, a)).norm();
     if l0 <= 1e-9 {
@@ -49,8 +57,30 @@ pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, Stri
     if lock <= 1e-9 {
         return Err(format!("`lock_length_m` = {lock} must be positive"));
     }
+    let latch_spring = match (
+        spec.num("latch_stiffness_n_per_m")?,
+        spec.num("latch_damping_n_s_per_m")?,
+    ) {
+        (None, None) => None,
+        (None, Some(_)) => {
+            return Err(
+                "`latch_damping_n_s_per_m` needs `latch_stiffness_n_per_m` (a compliant latch)"
+                    .into(),
+            )
+        }
+        (Some(k), c) => {
+            let c = c.unwrap_or(0.0);
+            if k <= 0.0 || c < 0.0 {
+                return Err(format!(
+                    "`latch_stiffness_n_per_m` = {k} must be > 0 and `latch_damping_n_s_per_m` = {c} >= 0"
+                ));
+            }
+            Some((k, c))
+        }
+    };
     Ok(Box::new(Sleeve {
         axial_stiffness_n: spec.axial_stiffness()?,
+        latch_spring,
         ..Sleeve::new(&spec.name, a, b, lock)
     }))
 }
@@ -73,6 +103,9 @@ impl Constraint for Sleeve {
         if let Some(c) = out.first_mut() {
             *c = super::member_compliance(self.lock_length_m, self.axial_stiffness_n, ea_default_n);
         }
+    }
+    fn latch_spring(&self) -> Option<(f64, f64)> {
+        self.latch_spring
     }
     fn lock_gap(&self, x: &[f64]) -> Option<f64> {
         Some(self.row().residual(x))
