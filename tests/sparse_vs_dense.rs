@@ -115,7 +115,7 @@ fn compare_runs(name: &str, model: impl Fn() -> Model, max_steps: usize, to_depl
     jac.mul_t(&d.state().lambda, &mut f_state);
     let f_err = max_diff(&f_lw, &f_state) / max_abs(&f_state).max(1e-300);
     assert!(
-        f_err <= 1e-9 || max_abs(&f_state) < 1e-12,
+        f_err <= 1e-6 || max_abs(&f_state) < 1e-12,
         "{name}: least-work multipliers change the joint forces by {f_err:e}"
     );
     let lam_err = max_diff(&lam_d, &lam_s) / max_abs(&lam_d).max(1e-300);

@@ -285,6 +285,37 @@ impl Core {
         Ok(())
     }
 
+    /// Inverse effective mass of the structure along sleeve `e` at the
+    /// factored configuration (1/kg): the rate l'' of its length under a
+    /// unit pair of forces pulling its ends apart, with every active
+    /// constraint holding (one solve with Q = J_e^T, Adot Xdot = 0). A spring
+    /// of stiffness k across the sleeve then has the frequency
+    /// sqrt(k w). Uses `q`, `c`, `a`, `lambda` as scratch.
+    fn inverse_effective_mass(&mut self, model: &Model, e: usize) -> f64 {
+        let el = &model.elements[e];
+        let (ja, jb) = (el.joints()[0], el.joints()[1]);
+        let d = super::elements::at(&self.x, jb) - super::elements::at(&self.x, ja);
+        let u = d / d.norm();
+        self.q.fill(0.0);
+        for k in 0..3 {
+            self.q[3 * ja + k] = -u[k];
+            self.q[3 * jb + k] = u[k];
+        }
+        self.c.fill(0.0);
+        self.solver.accelerations(
+            &self.jac,
+            &model.inv_mass,
+            &self.q,
+            &self.c,
+            &mut self.a,
+            &mut self.lambda,
+        );
+        (0..3)
+            .map(|k| u[k] * (self.a[3 * jb + k] - self.a[3 * ja + k]))
+            .sum::<f64>()
+            .max(0.0)
+    }
+
     /// Newton iterations X <- X - M^-1 A^T S^+ Phi(X) until max |Phi| <= tol.
     fn project_positions(
         &mut self,
@@ -716,6 +747,17 @@ impl Simulator {
         Ok(core.mu.clone())
     }
 
+    /// The force through a compliant latch while it engages (N, tension
+    /// positive: T = k (l - L_lock) + c ldot); None for a sleeve that is
+    /// free, latched rigid, or whose transient has settled.
+    pub fn latch_spring_force_n(&self, element: usize) -> Option<f64> {
+        self.state
+            .transients
+            .iter()
+            .find(|t| t.element == element)
+            .map(|t| t.force_n)
+    }
+
     /// Sets a cable's motor-end tension from the next step on.
     pub fn set_cable_tension(&mut self, cable: usize, tension_n: f64) -> Result<(), SolverError> {
         let c = self
@@ -1126,20 +1168,29 @@ impl Simulator {
         self.state.transients.iter().any(|t| t.element == e)
     }
 
-    /// Longest step that resolves every engaged compliant latch's period.
+    /// Longest step that resolves the engaged compliant latches: a fraction
+    /// of the period 2 pi / sqrt(sum_i k_i w_i), w_i the inverse effective
+    /// mass along latch i. That bounds the fastest mode the latches make
+    /// together (Rayleigh: omega^2 = max_u sum_i k_i (J_i u)^2 / u^T M u
+    /// <= sum_i k_i w_i), and is a single latch's own period.
     fn transient_step_s(&self) -> f64 {
-        self.state
-            .transients
+        let tr = &self.state.transients;
+        if tr.is_empty() {
+            return f64::INFINITY;
+        }
+        let omega2: f64 = tr
             .iter()
-            .map(|t| {
-                t.period_s
-                    / if self.state.locks[t.event].peak_force_n.is_some() {
-                        self.opts.latch_settle_steps_per_period
-                    } else {
-                        self.opts.latch_steps_per_period
-                    }
-            })
-            .fold(f64::INFINITY, f64::min)
+            .map(|t| t.stiffness_n_per_m * t.inv_mass_eff_per_kg)
+            .sum();
+        let peaked = tr
+            .iter()
+            .all(|t| self.state.locks[t.event].peak_force_n.is_some());
+        let per_period = if peaked {
+            self.opts.latch_settle_steps_per_period
+        } else {
+            self.opts.latch_steps_per_period
+        };
+        2.0 * std::f64::consts::PI / omega2.sqrt() / per_period
     }
 
     /// Turns rigid the compliant latches whose transient is over: the force
@@ -1234,9 +1285,11 @@ impl Simulator {
             let (_, rate) = el
                 .extension(&self.state.x, &self.state.v)
                 .unwrap_or_default();
-            let (ja, jb) = (el.joints()[0], el.joints()[1]);
-            let inv_m = model.inv_mass[3 * ja] + model.inv_mass[3 * jb];
-            let period_s = 2.0 * std::f64::consts::PI / (k * inv_m).sqrt();
+            // the structure's effective mass along the sleeve, with every
+            // rigid constraint holding (factored at the state by the step)
+            self.core.x.copy_from_slice(&self.state.x);
+            let inv_mass_eff = self.core.inverse_effective_mass(model, e);
+            let period_s = 2.0 * std::f64::consts::PI / (k * inv_mass_eff).sqrt();
             self.state.locks.push(LockEvent {
                 element: e,
                 name: el.name().to_string(),
@@ -1254,6 +1307,7 @@ impl Simulator {
                 event: self.state.locks.len() - 1,
                 stiffness_n_per_m: k,
                 damping_n_s_per_m: c,
+                inv_mass_eff_per_kg: inv_mass_eff,
                 sign,
                 period_s,
                 engaged_at_s: t,

@@ -34,11 +34,14 @@ pub struct LatchTransient {
     pub event: usize,
     pub stiffness_n_per_m: f64,
     pub damping_n_s_per_m: f64,
+    /// Inverse effective mass of the structure along the sleeve at
+    /// engagement (1/kg), every rigid constraint holding.
+    pub inv_mass_eff_per_kg: f64,
     /// +1 when the sleeve engaged extending (the latch pulls: T > 0), -1
     /// when shortening (it pushes).
     pub sign: f64,
-    /// Period bound 2 pi / sqrt(k (1/m_a + 1/m_b)) (s): no mode of the
-    /// engaged latch is faster.
+    /// The latch's own period 2 pi / sqrt(k w), w = `inv_mass_eff_per_kg`
+    /// (s): the window over which it is checked for settling.
     pub period_s: f64,
     pub engaged_at_s: f64,
     /// Latch tension and its rate at the state (N, N/s).
@@ -104,7 +107,7 @@ pub struct State {
     /// With redundant rows the split is statically indeterminate: the dense
     /// solver gives the minimum-norm one, the sparse solver one that leaves the
     /// rows it found redundant at zero (both give the same joint forces A^T lambda).
-    /// `Simulator::min_norm_multipliers` gives the minimum-norm split with
+    /// `Simulator::least_work_multipliers` gives the least-work split with
     /// either (what the node publishes as sleeve forces).
     pub lambda: Vec<f64>,
     pub energy: Energy,
