@@ -485,6 +485,7 @@ fn model(x0: Vec<f64>, specs: Vec<ElementSpec>) -> Model {
         damping_n_s_per_m: 0.0,
         dt_s: 1e-3,
         end_time_s: 1.0,
+        axial_stiffness_n: None,
     })
     .unwrap_or_else(|(i, e)| panic!("model build failed at item {i}: {e}"))
 }

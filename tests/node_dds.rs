@@ -314,7 +314,7 @@ fn zero_tension_holds_still_and_more_tension_deploys_sooner() {
             t > 0.0 && t < 12.0,
             "latched at {t} s with 0.2 N (0.02 N: ~20.4 s)"
         );
-        // The four sleeves latched together carry the minimum-norm shares of
+        // The four sleeves latched together carry the least-work shares of
         // the load on /joint_states (the sparse solver's own multipliers give
         // one of them all of it).
         let mut sleeves = None;

@@ -101,27 +101,33 @@ fn compare_runs(name: &str, model: impl Fn() -> Model, max_steps: usize, to_depl
         worst_impulse =
             worst_impulse.max((a.impulse_ns - b.impulse_ns).abs() / a.impulse_ns.max(1e-300));
     }
-    // Member forces: the minimum-norm multipliers agree (the sparse state's
+    // Member forces: the least-work multipliers agree (the sparse state's
     // basic ones put a redundant group's whole share on the rows it keeps).
     let n_locks = ld.len();
     let (lam_d, lam_s) = (
-        d.min_norm_multipliers().expect("dense multipliers"),
-        s.min_norm_multipliers().expect("sparse multipliers"),
+        d.least_work_multipliers().expect("dense multipliers"),
+        s.least_work_multipliers().expect("sparse multipliers"),
     );
-    assert_eq!(
-        lam_d,
-        d.state().lambda,
-        "{name}: dense multipliers are min-norm"
+    // The least-work split carries the state's joint forces A^T lambda
+    // (the Jacobian was just filled at the state by the request).
+    let jac = d.jacobian();
+    let (mut f_lw, mut f_state) = (vec![0.0; jac.ncols], vec![0.0; jac.ncols]);
+    jac.mul_t(&lam_d, &mut f_lw);
+    jac.mul_t(&d.state().lambda, &mut f_state);
+    let f_err = max_diff(&f_lw, &f_state) / max_abs(&f_state).max(1e-300);
+    assert!(
+        f_err <= 1e-6 || max_abs(&f_state) < 1e-12,
+        "{name}: least-work multipliers change the joint forces by {f_err:e}"
     );
     let lam_err = max_diff(&lam_d, &lam_s) / max_abs(&lam_d).max(1e-300);
     assert!(
         lam_err <= 1e-6,
-        "{name}: minimum-norm multipliers differ by {lam_err:e} (relative to the largest)"
+        "{name}: least-work multipliers differ by {lam_err:e} (relative to the largest)"
     );
     eprintln!(
         "{name}: {steps} steps, max position difference {worst:.2e} m, deploy at {:?} s, \
          {n_locks} locks, max relative lock-impulse difference {worst_impulse:.1e}, \
-         min-norm multipliers {lam_err:.1e} (basic: {:.1e})",
+         least-work multipliers {lam_err:.1e} (basic: {:.1e}), joint forces {f_err:.1e}",
         d.state().deploy_time_s,
         max_diff(&lam_d, &s.state().lambda) / max_abs(&lam_d).max(1e-300)
     );
@@ -581,7 +587,7 @@ fn min_norm_multipliers_leave_the_trajectory_unchanged() {
             assert!(k < 5000, "{}: not deployed", p.display());
             plain.step(dt).expect("step");
             asked.step(dt).expect("step");
-            let lambda = asked.min_norm_multipliers().expect("multipliers");
+            let lambda = asked.least_work_multipliers().expect("multipliers");
             assert_eq!(lambda.len(), asked.state().lambda.len());
             assert!(
                 plain.state().x == asked.state().x && plain.state().lambda == asked.state().lambda,

@@ -110,6 +110,12 @@ struct GenerateArgs {
     /// mast, sail: angle at which the sleeves latch (deg; defaults 60 and 55). The ring latches flat.
     #[arg(long, allow_negative_numbers = true)]
     deploy_deg: Option<f64>,
+    /// mast: compliant latches of this stiffness on every sleeve (N/m); rigid latches without it.
+    #[arg(long, allow_negative_numbers = true)]
+    latch_stiffness: Option<f64>,
+    /// mast: damping of the compliant latches (N s/m; needs --latch-stiffness).
+    #[arg(long, allow_negative_numbers = true)]
+    latch_damping: Option<f64>,
 }
 
 #[derive(Args, Debug)]
@@ -339,6 +345,18 @@ fn generate_cmd(a: GenerateArgs) -> Result<(), Failure> {
                 damping_n_s_per_m: a.damping.unwrap_or(d.damping_n_s_per_m),
                 start_deg: a.start_deg.unwrap_or(d.start_deg),
                 deploy_deg: a.deploy_deg.unwrap_or(d.deploy_deg),
+                latch: match (a.latch_stiffness, a.latch_damping) {
+                    (None, None) => None,
+                    (None, Some(_)) => {
+                        return Err(Failure::input(
+                            "--latch-damping needs --latch-stiffness (a compliant latch)",
+                        ))
+                    }
+                    (Some(k), c) => Some(generate::LatchParams {
+                        stiffness_n_per_m: k,
+                        damping_n_s_per_m: c.unwrap_or(0.0),
+                    }),
+                },
                 ..d
             };
             generate::mast(&p).map_err(Failure::input)?

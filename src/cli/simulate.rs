@@ -190,6 +190,19 @@ pub fn run(a: SimulateArgs) -> Result<(), Failure> {
     }
 }
 
+/// The latch with the largest load: the largest peak force among compliant
+/// latches, else the largest impulse among rigid ones.
+fn largest_latch_load(locks: &[LockEvent]) -> Option<&LockEvent> {
+    let by = |f: fn(&LockEvent) -> Option<f64>| {
+        locks
+            .iter()
+            .filter_map(|l| f(l).map(|v| (v, l)))
+            .max_by(|a, b| a.0.total_cmp(&b.0))
+            .map(|(_, l)| l)
+    };
+    by(|l| l.peak_force_n).or_else(|| by(|l| Some(l.impulse_ns)))
+}
+
 fn print_summary(s: &SimulateJson) {
     say!("model            {}", s.model);
     match s.deploy_time_s {
@@ -208,7 +221,7 @@ fn print_summary(s: &SimulateJson) {
     say!("max |Phi|        {:.3e} m", s.max_constraint_violation_m);
     say!(
         "energy           motor {:.6e} J, friction {:.3e} J, damping {:.3e} J, latches {:.6e} J, kinetic {:.6e} J; balance error {:.2e}",
-        s.energy.motor_work_j, s.energy.friction_loss_j, s.energy.damping_loss_j, s.energy.lock_loss_j, s.kinetic_energy_j, s.energy_balance_rel_error
+        s.energy.motor_work_j, s.energy.friction_loss_j, s.energy.damping_loss_j, s.energy.lock_loss_j + s.energy.latch_damping_loss_j, s.kinetic_energy_j, s.energy_balance_rel_error
     );
     say!(
         "mechanisms       {} at start, {} at end",
@@ -217,22 +230,42 @@ fn print_summary(s: &SimulateJson) {
     );
     if !s.locks.is_empty() {
         say!(
-            "\n{:<16} {:>14} {:>14} {:>16} {:>14}",
+            "\n{:<16} {:>14} {:>14} {:>16} {:>14} {:>14} {:>14}",
             "lock",
             "time_s",
             "impulse_ns",
             "energy_lost_j",
-            "speed_m_s"
+            "speed_m_s",
+            "peak_force_n",
+            "time_of_peak_s"
         );
+        let opt = |v: Option<f64>, prec: usize| v.map_or("-".into(), |v| format!("{v:.prec$e}"));
         for l in &s.locks {
             say!(
-                "{:<16} {:>14.6} {:>14.6e} {:>16.6e} {:>14.6e}",
+                "{:<16} {:>14.6} {:>14.6e} {:>16.6e} {:>14.6e} {:>14} {:>14}",
                 l.name,
                 l.time_s,
                 l.impulse_ns,
                 l.energy_lost_j,
-                l.closing_speed_m_s
+                l.closing_speed_m_s,
+                opt(l.peak_force_n, 6),
+                opt(l.time_of_peak_s, 6)
             );
+        }
+        if let Some(l) = largest_latch_load(&s.locks) {
+            match l.peak_force_n {
+                Some(f) => say!(
+                    "largest latch load: `{}`, peak force {f:.6e} N at t = {:.6} s",
+                    l.name,
+                    l.time_of_peak_s.unwrap_or(l.time_s)
+                ),
+                None => say!(
+                    "largest latch load: `{}`, impulse {:.6e} N s at t = {:.6} s (rigid latch)",
+                    l.name,
+                    l.impulse_ns,
+                    l.time_s
+                ),
+            }
         }
     }
 }

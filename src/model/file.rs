@@ -12,6 +12,7 @@
 //! end_time_s = 120.0
 //! gravity_m_s2 = [0.0, 0.0, 0.0]
 //! damping_n_s_per_m = 0.0    # viscous, on each joint's velocity
+//! axial_stiffness_n = 6.0e6  # EA of members that name none (N): shares redundant forces
 //!
 //! [solver]                   # all optional: tolerances and iteration limits,
 //! newmark_max_iterations = 60  # keys and defaults in solver::settings
@@ -86,6 +87,9 @@ struct Settings {
     gravity_m_s2: [f64; 3],
     #[serde(default)]
     damping_n_s_per_m: f64,
+    /// Model-wide EA of members (N); the solver's default when absent.
+    #[serde(default)]
+    axial_stiffness_n: Option<f64>,
 }
 fn default_dt() -> f64 {
     0.05
@@ -100,6 +104,7 @@ impl Default for Settings {
             end_time_s: default_end(),
             gravity_m_s2: [0.0; 3],
             damping_n_s_per_m: 0.0,
+            axial_stiffness_n: None,
         }
     }
 }
@@ -217,6 +222,17 @@ pub fn parse(text: &str, file: &str) -> Result<LoadedModel, ModelFileError> {
         return Err(err(
             None,
             "[settings] holds a NaN or infinite number; give finite values".into(),
+        ));
+    }
+    if s.axial_stiffness_n
+        .is_some_and(|ea| !(ea.is_finite() && ea > 0.0))
+    {
+        return Err(err(
+            None,
+            format!(
+                "[settings] axial_stiffness_n = {} must be a positive, finite EA in N",
+                s.axial_stiffness_n.unwrap_or(f64::NAN)
+            ),
         ));
     }
 
@@ -410,6 +426,7 @@ pub fn parse(text: &str, file: &str) -> Result<LoadedModel, ModelFileError> {
         damping_n_s_per_m: s.damping_n_s_per_m,
         dt_s: s.dt_s,
         end_time_s: s.end_time_s,
+        axial_stiffness_n: s.axial_stiffness_n,
     };
     let mut model = Model::build(parts).map_err(|(i, e)| {
         let msg = e.to_string();

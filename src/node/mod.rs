@@ -438,7 +438,7 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
             // (a least-squares solve with the sparse backend, only once a
             // sleeve has latched: the efforts of sliding sleeves are 0)
             let shared = (sim.state().locked.iter().any(|&l| l))
-                .then(|| sim.min_norm_multipliers())
+                .then(|| sim.least_work_multipliers())
                 .and_then(Result::ok);
             let lambda = shared.as_deref().unwrap_or(&sim.state().lambda);
             let _ = ep

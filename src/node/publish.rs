@@ -83,10 +83,11 @@ impl View {
         &self.names
     }
 
-    /// `lambda`: the state's multipliers with the minimum-norm split among
-    /// redundant rows (`Simulator::min_norm_multipliers`), so that sleeves
-    /// that latched together show their shares of the load whichever solver
-    /// runs.
+    /// `lambda`: the state's multipliers with redundant rows sharing by least
+    /// work (`Simulator::least_work_multipliers`), so that sleeves that
+    /// latched together show their stiffness shares of the load whichever
+    /// solver runs; a compliant latch shows its spring-damper force while it
+    /// engages.
     pub fn joint_state(
         &self,
         sim: &Simulator,
@@ -128,7 +129,8 @@ impl View {
                             .map(|l| -l)
                             .unwrap_or(0.0)
                     } else {
-                        0.0
+                        // a compliant latch engaging: the force through it
+                        sim.latch_spring_force_n(*e).unwrap_or(0.0)
                     };
                     eff.push(force);
                 }
@@ -345,7 +347,7 @@ mod tests {
     use crate::solver::{Options, SolverKind};
 
     /// The deployed mast's four sleeves latched together (a redundant group):
-    /// their published efforts are the minimum-norm shares, the same with
+    /// their published efforts are the least-work shares, the same with
     /// either solver, not the sparse basic split that gives one sleeve the
     /// whole load (0.173 N on S1, 0 on the others).
     #[test]
@@ -364,7 +366,7 @@ mod tests {
             while !sim.state().deployed {
                 sim.step(0.05).expect("step");
             }
-            let lambda = sim.min_norm_multipliers().expect("multipliers");
+            let lambda = sim.least_work_multipliers().expect("multipliers");
             let js = view.joint_state(&sim, &lambda, sim_stamp(sim.state().t_s), "world");
             let sleeves: Vec<f64> = js
                 .name

@@ -7,6 +7,7 @@
 pub mod cable;
 pub mod elements;
 pub mod jacobian;
+pub mod least_work;
 pub mod linsolve;
 pub mod mobility;
 pub mod model;

@@ -6,6 +6,15 @@ use super::elements::{self, Constraint, ElementSpec};
 use super::settings::SolverSettings;
 use super::SolverError;
 
+/// Default axial stiffness EA of every member (N) where neither the element nor
+/// `[settings] axial_stiffness_n` gives one: a carbon-fibre tube of 20 mm
+/// outer diameter and 1 mm wall (A = 59.7 mm^2) with an axial modulus of
+/// 100 GPa, typical of deployable-truss struts. Only the ratios of member
+/// compliances matter to the rigid model (they decide how redundant members
+/// share forces and latch impulses), so one model-wide value gives the
+/// length-weighted split.
+pub const DEFAULT_AXIAL_STIFFNESS_N: f64 = 6.0e6;
+
 #[derive(Clone, Debug)]
 pub struct Joint {
     pub name: String,
@@ -59,6 +68,11 @@ pub struct Model {
     /// Tolerances and iteration limits of the solver (the model file's
     /// `[solver]` table; defaults when it has none).
     pub solver: SolverSettings,
+    /// EA of members whose element gives none (N).
+    pub axial_stiffness_n: f64,
+    /// Compliance L/EA of the stiffest member (m/N): the scale against which
+    /// rows that are not members are made rigid in least-work sharing.
+    pub stiffest_compliance_m_per_n: f64,
 }
 
 pub struct ModelParts {
@@ -72,6 +86,8 @@ pub struct ModelParts {
     pub damping_n_s_per_m: f64,
     pub dt_s: f64,
     pub end_time_s: f64,
+    /// Model-wide default EA of members (N); `DEFAULT_AXIAL_STIFFNESS_N` when None.
+    pub axial_stiffness_n: Option<f64>,
 }
 
 impl Model {
@@ -198,6 +214,25 @@ impl Model {
                 "damping must be finite and >= 0, gravity finite".into(),
             ));
         }
+        let axial_stiffness_n = p.axial_stiffness_n.unwrap_or(DEFAULT_AXIAL_STIFFNESS_N);
+        if !(axial_stiffness_n.is_finite() && axial_stiffness_n > 0.0) {
+            return Err(err(
+                0,
+                format!("axial_stiffness_n = {axial_stiffness_n} N must be positive and finite"),
+            ));
+        }
+        let mut stiffest_compliance_m_per_n = f64::INFINITY;
+        let mut buf = Vec::new();
+        for e in &elems {
+            buf.resize(e.rows(true), f64::NAN);
+            e.row_compliance_m_per_n(true, axial_stiffness_n, &mut buf);
+            for &c in buf.iter().filter(|c| c.is_finite()) {
+                stiffest_compliance_m_per_n = stiffest_compliance_m_per_n.min(c);
+            }
+        }
+        if !stiffest_compliance_m_per_n.is_finite() {
+            stiffest_compliance_m_per_n = 1.0 / axial_stiffness_n; // no members at all
+        }
         let locks = elems
             .iter()
             .enumerate()
@@ -219,6 +254,8 @@ impl Model {
             inv_mass,
             locks,
             solver: SolverSettings::default(),
+            axial_stiffness_n,
+            stiffest_compliance_m_per_n,
         })
     }
 

@@ -18,9 +18,46 @@ pub struct LockEvent {
     pub energy_lost_j: f64,
     /// Sleeve closing (or opening) rate just before the latch (m/s).
     pub closing_speed_m_s: f64,
+    /// Compliant latches: the largest force through the latch while it
+    /// engaged (N, magnitude) and when; None for a rigid latch (whose force
+    /// is an impulse) or while the peak is still to come.
+    pub peak_force_n: Option<f64>,
+    pub time_of_peak_s: Option<f64>,
 }
 
-/// Energy bookkeeping (J). Balance: kinetic = cable_work + gravity_work - damping_loss - lock_loss.
+/// A compliant latch while its engagement transient lasts: a spring-damper
+/// about the lock length, tension T = k (l - L_lock) + c ldot.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LatchTransient {
+    pub element: usize,
+    /// Index of its event in `State::locks`.
+    pub event: usize,
+    pub stiffness_n_per_m: f64,
+    pub damping_n_s_per_m: f64,
+    /// Inverse effective mass of the structure along the sleeve at
+    /// engagement (1/kg), every rigid constraint holding.
+    pub inv_mass_eff_per_kg: f64,
+    /// +1 when the sleeve engaged extending (the latch pulls: T > 0), -1
+    /// when shortening (it pushes).
+    pub sign: f64,
+    /// The latch's own period 2 pi / sqrt(k w), w = `inv_mass_eff_per_kg`
+    /// (s): the window over which it is checked for settling.
+    pub period_s: f64,
+    pub engaged_at_s: f64,
+    /// Latch tension and its rate at the state (N, N/s).
+    pub force_n: f64,
+    pub force_rate_n_s: f64,
+    /// Extremes of sign * T over the current window of one period, and its end.
+    pub window_max_n: f64,
+    pub window_min_n: f64,
+    pub window_end_s: f64,
+    /// Integral of T dt and the damper's dissipation since engagement (N s, J).
+    pub impulse_ns: f64,
+    pub dissipated_j: f64,
+}
+
+/// Energy bookkeeping (J). Balance: kinetic + latch_spring_energy = cable_work
+/// + gravity_work - damping_loss - lock_loss - latch_damping_loss.
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
 pub struct Energy {
     /// Work of the motors: motor tension times the cable length reeled in.
@@ -31,12 +68,20 @@ pub struct Energy {
     pub damping_loss_j: f64,
     pub lock_loss_j: f64,
     pub gravity_work_j: f64,
+    /// Energy the dampers of compliant latches took (J).
+    pub latch_damping_loss_j: f64,
+    /// Elastic energy held in engaged compliant latches now (J).
+    pub latch_spring_energy_j: f64,
 }
 
 impl Energy {
     /// |kinetic - (work in - losses)| divided by the largest energy that flowed.
     pub fn balance_rel_error(&self, kinetic_j: f64) -> f64 {
-        let net = self.cable_work_j + self.gravity_work_j - self.damping_loss_j - self.lock_loss_j;
+        let net = self.cable_work_j + self.gravity_work_j
+            - self.damping_loss_j
+            - self.lock_loss_j
+            - self.latch_damping_loss_j
+            - self.latch_spring_energy_j;
         let scale = self
             .motor_work_j
             .abs()
@@ -62,11 +107,13 @@ pub struct State {
     /// With redundant rows the split is statically indeterminate: the dense
     /// solver gives the minimum-norm one, the sparse solver one that leaves the
     /// rows it found redundant at zero (both give the same joint forces A^T lambda).
-    /// `Simulator::min_norm_multipliers` gives the minimum-norm split with
+    /// `Simulator::least_work_multipliers` gives the least-work split with
     /// either (what the node publishes as sleeve forces).
     pub lambda: Vec<f64>,
     pub energy: Energy,
     pub locks: Vec<LockEvent>,
+    /// Compliant latches engaged and not yet settled (rigid).
+    pub transients: Vec<LatchTransient>,
     /// Largest |Phi| seen after any step (m).
     pub max_violation_m: f64,
     /// Mechanisms (3n - rank A) of the current constraint set, at the last check.

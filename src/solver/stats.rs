@@ -32,8 +32,12 @@ pub struct SolverStats {
     /// Latch root searches started, and the trial steps they computed.
     pub latch_searches: u64,
     pub latch_search_steps: u64,
-    /// Sleeves latched.
+    /// Sleeves latched (rigid, or compliant latches engaging).
     pub latches: u64,
+    /// Compliant latches that engaged, and the sub-steps spent resolving
+    /// their transients.
+    pub compliant_latches: u64,
+    pub transient_substeps: u64,
 }
 
 /// Fallbacks by kind (see each field).
@@ -68,6 +72,9 @@ pub struct Fallbacks {
     pub root_search_limit: u64,
     /// The accelerations' fixed point with cable inertia stopped at its iteration limit.
     pub consistent_unconverged: u64,
+    /// A compliant latch turned rigid at `latch_max_periods` without having
+    /// settled (the rigid latch took the oscillation left).
+    pub latch_unsettled: u64,
 }
 
 impl SolverStats {

@@ -20,6 +20,32 @@ pub struct MastParams {
     pub friction_mu: f64,
     pub damping_n_s_per_m: f64,
     pub dt_s: f64,
+    /// Compliant latches on the sleeves: stiffness (N/m) and damping (N s/m);
+    /// rigid latches when None.
+    pub latch: Option<LatchParams>,
+}
+
+/// A compliant latch as the generators write it on every sleeve.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LatchParams {
+    pub stiffness_n_per_m: f64,
+    pub damping_n_s_per_m: f64,
+}
+
+impl LatchParams {
+    /// The sleeve parameters, after checking them.
+    pub fn sleeve_params(&self) -> Result<Vec<(String, Param)>, String> {
+        let (k, c) = (self.stiffness_n_per_m, self.damping_n_s_per_m);
+        if !(k.is_finite() && k > 0.0 && c.is_finite() && c >= 0.0) {
+            return Err(format!(
+                "latch stiffness {k} N/m must be > 0 and latch damping {c} N s/m >= 0"
+            ));
+        }
+        Ok(vec![
+            ("latch_stiffness_n_per_m".into(), Param::Num(k)),
+            ("latch_damping_n_s_per_m".into(), Param::Num(c)),
+        ])
+    }
 }
 
 impl Default for MastParams {
@@ -35,6 +61,7 @@ impl Default for MastParams {
             friction_mu: 0.005,
             damping_n_s_per_m: 0.0,
             dt_s: 0.05,
+            latch: None,
         }
     }
 }
@@ -102,6 +129,10 @@ pub fn mast(p: &MastParams) -> Result<ModelDoc, String> {
             p.units
         ));
     }
+    let latch_params = match &p.latch {
+        Some(l) => l.sleeve_params()?,
+        None => vec![],
+    };
     let positive = [p.rod_length_m, p.joint_mass_kg, p.dt_s];
     if positive.iter().any(|v| !(v.is_finite() && *v > 0.0)) {
         return Err("rod length, joint mass and dt must be positive and finite".into());
@@ -162,7 +193,11 @@ pub fn mast(p: &MastParams) -> Result<ModelDoc, String> {
             kind: "sleeve".into(),
             name: format!("S{}", u + 1),
             joints: vec![format!("L{u}"), format!("L{}", u + 1)],
-            params: vec![("lock_length_m".into(), Param::Num(lock_len))],
+            params: [
+                vec![("lock_length_m".into(), Param::Num(lock_len))],
+                latch_params.clone(),
+            ]
+            .concat(),
         });
     }
     Ok(ModelDoc {
@@ -179,7 +214,13 @@ pub fn mast(p: &MastParams) -> Result<ModelDoc, String> {
             "Drive cable from a motor at L0 over pulleys L0-R0-L1-R1-...-R_N (anchored at R_N): its horizontal runs shorten as the mast rises.".into(),
             "The drive tension is small on purpose: with no damping the mast accelerates freely, and this tension gives a deployment of tens of seconds.".into(),
             "Reference geometry is the closed-form rectangle stack at the deploy angle.".into(),
-        ],
+        ]
+        .into_iter()
+        .chain(p.latch.map(|l| format!(
+            "Latches are compliant: {} N/m and {} N s/m each (a spring-loaded latch pin in a 20 mm telescoping tube: an assumption, not a measured value); the peak latch force depends on it.",
+            l.stiffness_n_per_m, l.damping_n_s_per_m
+        )))
+        .collect(),
         dt_s: p.dt_s,
         end_time_s: 600.0,
         damping_n_s_per_m: p.damping_n_s_per_m,

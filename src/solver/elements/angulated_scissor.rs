@@ -18,6 +18,8 @@ pub struct AngulatedScissor {
     joints: [usize; 5],
     lengths: [f64; 6],
     scale: f64,
+    /// EA of the arms (N); the model's default when None.
+    axial_stiffness_n: Option<f64>,
 }
 
 /// Index pairs (into `joints`) of the 6 distance rows: io, jo, ko, lo, ij, kl.
@@ -55,7 +57,7 @@ impl AngulatedScissor {
 
 pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, String> {
     spec.expect_joints(5, "i, hub o, j of rod 1, then k, l of rod 2")?;
-    spec.only_params(&[])?;
+    spec.only_params(&[super::AXIAL_STIFFNESS_KEY])?;
     let j5 = [
         spec.joints[0],
         spec.joints[1],
@@ -82,6 +84,7 @@ pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, Stri
         joints: j5,
         lengths,
         scale,
+        axial_stiffness_n: spec.axial_stiffness()?,
     }))
 }
 
@@ -120,5 +123,13 @@ impl Constraint for AngulatedScissor {
         let [p1, p2] = self.planes();
         out[6] = p1.adot_xdot(x, v);
         out[7] = p2.adot_xdot(x, v);
+    }
+    /// The four arms and the two dummy bars that keep each angulated rod rigid
+    /// are members; the two coplanarity rows are not.
+    fn row_compliance_m_per_n(&self, _locked: bool, ea_default_n: f64, out: &mut [f64]) {
+        for (c, l) in out.iter_mut().zip(&self.lengths) {
+            *c = super::member_compliance(*l, self.axial_stiffness_n, ea_default_n);
+        }
+        out[6..8].fill(f64::NAN);
     }
 }

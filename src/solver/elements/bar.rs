@@ -9,6 +9,8 @@ pub struct Bar {
     name: String,
     joints: [usize; 2],
     pub length_m: f64,
+    /// EA of the member (N); the model's default when None.
+    pub axial_stiffness_n: Option<f64>,
 }
 
 impl Bar {
@@ -17,6 +19,7 @@ impl Bar {
             name: name.to_string(),
             joints: [a, b],
             length_m,
+            axial_stiffness_n: None,
         }
     }
     fn row(&self) -> Distance {
@@ -30,14 +33,17 @@ impl Bar {
 
 pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, String> {
     spec.expect_joints(2, "its two end joints")?;
-    spec.only_params(&["length_m"])?;
+    spec.only_params(&["length_m", super::AXIAL_STIFFNESS_KEY])?;
     let (a, b) = (spec.joints[0], spec.joints[1]);
     let l0 = (at(x0, b) - at(x0, a)).norm();
     let length_m = spec.num("length_m")?.unwrap_or(l0);
     if length_m <= 1e-9 || l0 <= 1e-9 {
         return Err(format!("zero-length member (its joints are {l0:.3e} m apart); move one end joint or remove the member"));
     }
-    Ok(Box::new(Bar::new(&spec.name, a, b, length_m)))
+    Ok(Box::new(Bar {
+        axial_stiffness_n: spec.axial_stiffness()?,
+        ..Bar::new(&spec.name, a, b, length_m)
+    }))
 }
 
 impl Constraint for Bar {
@@ -56,5 +62,8 @@ impl Constraint for Bar {
     }
     fn adot_xdot(&self, x: &[f64], v: &[f64], out: &mut [f64]) {
         out[0] = self.row().adot_xdot(x, v);
+    }
+    fn row_compliance_m_per_n(&self, _locked: bool, ea_default_n: f64, out: &mut [f64]) {
+        out[0] = super::member_compliance(self.length_m, self.axial_stiffness_n, ea_default_n);
     }
 }

@@ -84,6 +84,16 @@ impl ElementSpec {
         }
         Ok(())
     }
+    /// The element's axial stiffness EA (N) of its members, if the model file
+    /// names one (`axial_stiffness_n`); positive and finite.
+    pub fn axial_stiffness(&self) -> Result<Option<f64>, String> {
+        match self.num(AXIAL_STIFFNESS_KEY)? {
+            Some(ea) if ea <= 0.0 => Err(format!(
+                "`{AXIAL_STIFFNESS_KEY}` = {ea} must be positive (EA of the member, N)"
+            )),
+            other => Ok(other),
+        }
+    }
     pub fn expect_joints(&self, n: usize, roles: &str) -> Result<(), String> {
         if self.joints.len() != n {
             return Err(format!(
@@ -94,6 +104,16 @@ impl ElementSpec {
         }
         Ok(())
     }
+}
+
+/// The parameter that gives an element's members their axial stiffness EA (N).
+pub const AXIAL_STIFFNESS_KEY: &str = "axial_stiffness_n";
+
+/// Compliance L / EA (m/N) of a member of length `length_m` whose element gives
+/// `ea_n` (else the model's default `ea_default_n`).
+#[inline]
+pub fn member_compliance(length_m: f64, ea_n: Option<f64>, ea_default_n: f64) -> f64 {
+    length_m / ea_n.unwrap_or(ea_default_n)
 }
 
 /// Read-only access to joint positions or velocities stored as X = [x0 y0 z0 x1 ...].
@@ -144,6 +164,21 @@ pub trait Constraint: Send + Sync + fmt::Debug {
     /// supports, centroids, hinge axes) contribute none.
     fn members(&self) -> &'static [[usize; 2]] {
         &[]
+    }
+    /// Axial compliance c = L / (EA) (m/N) of each of the element's rows that
+    /// is the length of a member, NaN for rows that are not (pivots,
+    /// coplanarity, supports, hinges). `ea_default_n` stands for EA where the
+    /// element names none. Redundant forces and impulses are shared by least
+    /// work, min sum c_i lambda_i^2 (`crate::solver::least_work`).
+    fn row_compliance_m_per_n(&self, _locked: bool, _ea_default_n: f64, out: &mut [f64]) {
+        out.fill(f64::NAN);
+    }
+    /// For lockable elements with a compliant latch: its stiffness k (N/m)
+    /// and damping c (N s/m). Engaged, the latch is a spring-damper about the
+    /// lock length, tension T = k (l - L_lock) + c ldot, until its transient
+    /// settles and it turns rigid. None: a rigid latch (an inelastic impact).
+    fn latch_spring(&self) -> Option<(f64, f64)> {
+        None
     }
     /// For lockable elements: the current length and its rate (m, m/s), used to
     /// publish sleeves as prismatic joints.

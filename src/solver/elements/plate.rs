@@ -20,6 +20,8 @@ pub struct Plate {
     six_bars: bool,
     lengths: [f64; 6],
     scale: f64,
+    /// EA of the plate's edge bars (N); the model's default when None.
+    axial_stiffness_n: Option<f64>,
 }
 
 /// Corner-index pairs of the bars: ij, jk, kl, li, ik, and (six-bar form only) jl.
@@ -48,7 +50,7 @@ impl Plate {
 
 pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, String> {
     spec.expect_joints(4, "its corners i, j, k, l in cyclic order")?;
-    spec.only_params(&["formulation"])?;
+    spec.only_params(&["formulation", super::AXIAL_STIFFNESS_KEY])?;
     let six_bars = match spec.text("formulation")?.unwrap_or("flat") {
         "flat" => false,
         "six_bars" => true,
@@ -78,6 +80,7 @@ pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, Stri
         six_bars,
         lengths,
         scale,
+        axial_stiffness_n: spec.axial_stiffness()?,
     }))
 }
 
@@ -122,5 +125,15 @@ impl Constraint for Plate {
         } else {
             self.plane().adot_xdot(x, v)
         };
+    }
+    /// The bars are members (five, or six in the paper's form); the
+    /// coplanarity row is not.
+    fn row_compliance_m_per_n(&self, _locked: bool, ea_default_n: f64, out: &mut [f64]) {
+        for (c, l) in out.iter_mut().zip(&self.lengths) {
+            *c = super::member_compliance(*l, self.axial_stiffness_n, ea_default_n);
+        }
+        if !self.six_bars {
+            out[5] = f64::NAN;
+        }
     }
 }

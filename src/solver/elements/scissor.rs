@@ -24,6 +24,8 @@ pub struct Scissor {
     t: f64,
     l_ij: f64,
     l_kl: f64,
+    /// EA of both rods (N); the model's default when None.
+    axial_stiffness_n: Option<f64>,
 }
 
 impl Scissor {
@@ -56,7 +58,7 @@ impl Scissor {
 
 pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, String> {
     spec.expect_joints(4, "rod 1 from i to j, rod 2 from k to l")?;
-    spec.only_params(&["ratio"])?;
+    spec.only_params(&["ratio", super::AXIAL_STIFFNESS_KEY])?;
     let ratio = spec.num("ratio")?.unwrap_or(1.0);
     if ratio <= 0.0 {
         return Err(format!("`ratio` = {ratio} (|Oj|/|Oi|) must be positive"));
@@ -78,6 +80,7 @@ pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, Stri
         t: 1.0 / (1.0 + ratio),
         l_ij,
         l_kl,
+        axial_stiffness_n: spec.axial_stiffness()?,
     }))
 }
 
@@ -121,5 +124,11 @@ impl Constraint for Scissor {
         out[1] = r2.adot_xdot(x, v);
         out[2..5].fill(0.0); // the pivot rows are linear in X
         out[5] = self.plane().adot_xdot(x, v);
+    }
+    /// The two rod lengths are members; the pivot and coplanarity rows are not.
+    fn row_compliance_m_per_n(&self, _locked: bool, ea_default_n: f64, out: &mut [f64]) {
+        out.fill(f64::NAN);
+        out[0] = super::member_compliance(self.l_ij, self.axial_stiffness_n, ea_default_n);
+        out[1] = super::member_compliance(self.l_kl, self.axial_stiffness_n, ea_default_n);
     }
 }

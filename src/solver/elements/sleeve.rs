@@ -11,6 +11,10 @@ pub struct Sleeve {
     name: String,
     joints: [usize; 2],
     pub lock_length_m: f64,
+    /// EA of the latched member (N); the model's default when None.
+    pub axial_stiffness_n: Option<f64>,
+    /// Compliant latch: stiffness (N/m) and damping (N s/m); rigid when None.
+    pub latch_spring: Option<(f64, f64)>,
 }
 
 impl Sleeve {
@@ -19,6 +23,8 @@ impl Sleeve {
             name: name.to_string(),
             joints: [a, b],
             lock_length_m,
+            axial_stiffness_n: None,
+            latch_spring: None,
         }
     }
     fn row(&self) -> Distance {
@@ -32,7 +38,12 @@ impl Sleeve {
 
 pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, String> {
     spec.expect_joints(2, "its two end joints")?;
-    spec.only_params(&["lock_length_m"])?;
+    spec.only_params(&[
+        "lock_length_m",
+        super::AXIAL_STIFFNESS_KEY,
+        "latch_stiffness_n_per_m",
+        "latch_damping_n_s_per_m",
+    ])?;
     let (a, b) = (spec.joints[0], spec.joints[1]);
     let l0 = (at(x0, b) - at(x0, a)).norm();
     if l0 <= 1e-9 {
@@ -46,7 +57,32 @@ pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, Stri
     if lock <= 1e-9 {
         return Err(format!("`lock_length_m` = {lock} must be positive"));
     }
-    Ok(Box::new(Sleeve::new(&spec.name, a, b, lock)))
+    let latch_spring = match (
+        spec.num("latch_stiffness_n_per_m")?,
+        spec.num("latch_damping_n_s_per_m")?,
+    ) {
+        (None, None) => None,
+        (None, Some(_)) => {
+            return Err(
+                "`latch_damping_n_s_per_m` needs `latch_stiffness_n_per_m` (a compliant latch)"
+                    .into(),
+            )
+        }
+        (Some(k), c) => {
+            let c = c.unwrap_or(0.0);
+            if k <= 0.0 || c < 0.0 {
+                return Err(format!(
+                    "`latch_stiffness_n_per_m` = {k} must be > 0 and `latch_damping_n_s_per_m` = {c} >= 0"
+                ));
+            }
+            Some((k, c))
+        }
+    };
+    Ok(Box::new(Sleeve {
+        axial_stiffness_n: spec.axial_stiffness()?,
+        latch_spring,
+        ..Sleeve::new(&spec.name, a, b, lock)
+    }))
 }
 
 impl Constraint for Sleeve {
@@ -62,6 +98,14 @@ impl Constraint for Sleeve {
     }
     fn adot_xdot(&self, x: &[f64], v: &[f64], out: &mut [f64]) {
         out[0] = self.row().adot_xdot(x, v);
+    }
+    fn row_compliance_m_per_n(&self, _locked: bool, ea_default_n: f64, out: &mut [f64]) {
+        if let Some(c) = out.first_mut() {
+            *c = super::member_compliance(self.lock_length_m, self.axial_stiffness_n, ea_default_n);
+        }
+    }
+    fn latch_spring(&self) -> Option<(f64, f64)> {
+        self.latch_spring
     }
     fn lock_gap(&self, x: &[f64]) -> Option<f64> {
         Some(self.row().residual(x))

@@ -7,6 +7,8 @@
 
 use crate::solver::cable::CableEval;
 use crate::solver::jacobian::Jacobian;
+use crate::solver::least_work::LeastWork;
+use crate::solver::linsolve::SolverKind;
 use crate::solver::linsolve::{ConstraintSolver, FactorReport, SolveMode, SolveReport};
 use crate::solver::model::Model;
 use crate::solver::stats::SolverStats;
@@ -44,9 +46,11 @@ pub(super) struct Core {
     pub prev_h: Option<f64>,
     pub a_prev2: Vec<f64>,
     pub prev_h2: Option<f64>,
-    /// The backend that computes minimum-norm multipliers on request
-    /// (`Simulator::min_norm_multipliers`), made at the first request.
-    pub aux_solver: Option<Box<dyn ConstraintSolver>>,
+    /// The least-work split of redundant multipliers (member forces on
+    /// request, latch impulses), with a backend of its own; made at first use.
+    pub least_work: Option<LeastWork>,
+    /// Engaged compliant latches: (element, k in N/m, c in N s/m).
+    pub springs: Vec<(usize, f64, f64)>,
     /// What the stepping loop did (the aux solver's work is not counted).
     pub stats: SolverStats,
 }
@@ -84,7 +88,8 @@ impl Core {
             prev_h: None,
             a_prev2: vec![0.0; n],
             prev_h2: None,
-            aux_solver: None,
+            least_work: None,
+            springs: Vec::new(),
             stats: SolverStats::default(),
         }
     }
@@ -166,6 +171,47 @@ impl Core {
         )?;
         self.book_solve(report);
         Ok(())
+    }
+
+    /// The least-work split (into `mu`) of the joint forces held in `dx`
+    /// among the rows of the Jacobian as last filled (`least_work`): member
+    /// forces, or latch impulses from the joint impulses of a velocity jump.
+    /// Its own backend: the stepping solver and its counters are untouched.
+    pub fn least_work_split(&mut self, model: &Model, kind: SolverKind) -> Result<(), SolverError> {
+        let lw = self.least_work.get_or_insert_with(|| LeastWork::new(kind));
+        lw.multipliers(model, &self.jac, &self.dx, &mut self.mu)
+    }
+
+    /// Inverse effective mass of the structure along sleeve `e` at the
+    /// factored configuration (1/kg): the rate l'' of its length under a
+    /// unit pair of forces pulling its ends apart, with every active
+    /// constraint holding (one solve with Q = J_e^T, Adot Xdot = 0). A spring
+    /// of stiffness k across the sleeve then has the frequency sqrt(k w).
+    /// Uses `q`, `c`, `a`, `lambda` as scratch.
+    pub fn inverse_effective_mass(&mut self, model: &Model, e: usize) -> Result<f64, SolverError> {
+        let el = &model.elements[e];
+        let (ja, jb) = (el.joints()[0], el.joints()[1]);
+        let d = crate::solver::elements::at(&self.x, jb) - crate::solver::elements::at(&self.x, ja);
+        let u = d / d.norm();
+        self.q.fill(0.0);
+        for k in 0..3 {
+            self.q[3 * ja + k] = -u[k];
+            self.q[3 * jb + k] = u[k];
+        }
+        self.c.fill(0.0);
+        let report = self.solver.accelerations(
+            &self.jac,
+            &model.inv_mass,
+            &self.q,
+            &self.c,
+            &mut self.a,
+            &mut self.lambda,
+        )?;
+        self.book_solve(report);
+        Ok((0..3)
+            .map(|k| u[k] * (self.a[3 * jb + k] - self.a[3 * ja + k]))
+            .sum::<f64>()
+            .max(0.0))
     }
 
     pub fn save_trial(&self, to: &mut TrialCopy) {

@@ -25,18 +25,19 @@ pub(super) fn gap(model: &Model, e: usize, x: &[f64]) -> f64 {
     model.elements[e].lock_gap(x).unwrap_or(f64::NAN)
 }
 
-/// The first lockable element (other than `except`, not locked) whose gap
-/// has changed sign between x0 and x1 and ended more than `tol` past zero.
+/// The first lockable element (other than `except`, not `held`: latched or
+/// engaging) whose gap has changed sign between x0 and x1 and ended more than
+/// `tol` past zero.
 pub(super) fn crossed_unlatched(
     model: &Model,
-    locked: &[bool],
+    held: &dyn Fn(usize) -> bool,
     x0: &[f64],
     x1: &[f64],
     tol: f64,
     except: Option<usize>,
 ) -> Option<usize> {
     model.locks.iter().copied().find(|&e| {
-        if Some(e) == except || locked[e] {
+        if Some(e) == except || held(e) {
             return false;
         }
         let (g0, g1) = (gap(model, e, x0), gap(model, e, x1));
@@ -95,7 +96,7 @@ impl Simulator {
         let iterations = st.dip_search_iterations;
         let mut best: Option<(f64, usize, f64)> = None;
         for &e in &model.locks {
-            if s.locked[e] {
+            if s.locked[e] || s.transients.iter().any(|t| t.element == e) {
                 continue;
             }
             let el = model.elements[e].as_ref();
@@ -275,9 +276,10 @@ impl Simulator {
     /// Another unlocked element whose gap has changed sign (beyond the latch
     /// tolerance) in the current trial.
     fn crossed_by(&self, target: usize) -> Option<usize> {
+        let s = &self.state;
         crossed_unlatched(
             &self.model,
-            &self.state.locked,
+            &|e| s.locked[e] || s.transients.iter().any(|t| t.element == e),
             &self.state.x,
             &self.core.x,
             self.settings.lock_tol_m,
@@ -305,15 +307,24 @@ mod tests {
             .map(|(i, v)| if i % 3 == 2 { 20.0 * v } else { *v })
             .collect();
         let mut locked = vec![false; m.elements.len()];
-        let e = crossed_unlatched(&m, &locked, &x0, &x1, 1e-9, None).expect("a crossing");
+        let e = crossed_unlatched(&m, &|e| locked[e], &x0, &x1, 1e-9, None).expect("a crossing");
         assert!(gap(&m, e, &x0) < 0.0 && gap(&m, e, &x1) > 1e-9);
-        assert_eq!(crossed_unlatched(&m, &locked, &x0, &x0, 1e-9, None), None);
-        let other = crossed_unlatched(&m, &locked, &x0, &x1, 1e-9, Some(e));
+        assert_eq!(
+            crossed_unlatched(&m, &|e| locked[e], &x0, &x0, 1e-9, None),
+            None
+        );
+        let other = crossed_unlatched(&m, &|e| locked[e], &x0, &x1, 1e-9, Some(e));
         assert!(other.is_some_and(|o| o != e));
-        assert_eq!(crossed_unlatched(&m, &locked, &x0, &x1, 1e3, None), None);
+        assert_eq!(
+            crossed_unlatched(&m, &|e| locked[e], &x0, &x1, 1e3, None),
+            None
+        );
         for &k in &m.locks {
             locked[k] = true;
         }
-        assert_eq!(crossed_unlatched(&m, &locked, &x0, &x1, 1e-9, None), None);
+        assert_eq!(
+            crossed_unlatched(&m, &|e| locked[e], &x0, &x1, 1e-9, None),
+            None
+        );
     }
 }

@@ -3,7 +3,19 @@
 //! projection (an inelastic latch): V+ = V- - M^-1 A^T mu with mu = S^+ A V-,
 //! the impulses. The kinetic energy lost is 1/2 mu . (A V-) per latching row.
 //! Then the mobility of the new constraint set decides whether the truss is
-//! deployed.
+//! deployed. Impulses are shared among redundant rows by least work
+//! (`crate::solver::least_work`): simultaneous latches of redundant members
+//! share by stiffness.
+//!
+//! A compliant latch (`Constraint::latch_spring`) engages instead as a
+//! spring-damper about its lock length, T = k (l - L) + c ldot, applied as a
+//! force (`integrator`); the steps resolve its period (`transient_step_s`),
+//! its peak force is located on the Hermite interpolant of T(t), and once its
+//! force varies by at most `latch_settle_rel` of the peak over one period (or
+//! after `latch_max_periods`) it turns rigid: the joints move back onto the
+//! lock length (by its deflection T/k), the velocities onto the rigid
+//! manifold, and its spring energy with the drive's work over that move go
+//! with the latch loss.
 
 use super::core::Core;
 use super::events::gap;
@@ -11,7 +23,7 @@ use super::Simulator;
 use crate::solver::linsolve::SolveMode;
 use crate::solver::model::Model;
 use crate::solver::settings::SolverSettings;
-use crate::solver::state::LockEvent;
+use crate::solver::state::{LatchTransient, LockEvent};
 use crate::solver::SolverError;
 
 impl Core {
@@ -38,8 +50,9 @@ impl Core {
 
 impl Simulator {
     /// Latches every lockable element at its lock (within the latch
-    /// tolerance), applies the inelastic latch to the velocities and records
-    /// the events. Returns how many latched.
+    /// tolerance): rigid latches by the inelastic velocity jump, recorded as
+    /// events; compliant ones engage as spring-dampers (their transient runs
+    /// in the following sub-steps). Returns how many latched or engaged.
     pub(super) fn latch(&mut self) -> Result<usize, SolverError> {
         let (model, st) = (&self.model, &self.settings);
         let newly: Vec<usize> = model
@@ -47,13 +60,195 @@ impl Simulator {
             .iter()
             .copied()
             .filter(|&e| {
-                !self.state.locked[e] && gap(model, e, &self.state.x).abs() <= st.latch_tol_m()
+                !self.state.locked[e]
+                    && !self.engaged(e)
+                    && gap(model, e, &self.state.x).abs() <= st.latch_tol_m()
             })
             .collect();
         if newly.is_empty() {
             return Ok(0);
         }
-        for &e in &newly {
+        let t = self.state.t_s;
+        let (springy, rigid): (Vec<usize>, Vec<usize>) = newly
+            .iter()
+            .partition(|&&e| model.elements[e].latch_spring().is_some());
+        for &e in &springy {
+            self.engage(e)?;
+        }
+        if rigid.is_empty() {
+            // the dampers' force jumps in: accelerations from there
+            self.core.prev_h = None;
+            self.restart_accelerations()?;
+        } else {
+            let jumps = self.lock_rigidly(&rigid)?;
+            for (&e, (impulse_ns, energy_lost_j, rate)) in rigid.iter().zip(jumps) {
+                self.state.locks.push(LockEvent {
+                    element: e,
+                    name: self.model.elements[e].name().to_string(),
+                    time_s: t,
+                    impulse_ns,
+                    energy_lost_j,
+                    closing_speed_m_s: rate,
+                    peak_force_n: None,
+                    time_of_peak_s: None,
+                });
+            }
+        }
+        Ok(newly.len())
+    }
+
+    /// Whether a sleeve's compliant latch is engaged (its transient lasts).
+    pub(super) fn engaged(&self, e: usize) -> bool {
+        self.state.transients.iter().any(|t| t.element == e)
+    }
+
+    /// A compliant latch engages at the state: its event (peak to come) and
+    /// transient, with the structure's effective mass along the sleeve (at
+    /// the factorization the accepted step left, every rigid constraint
+    /// holding) for its period 2 pi / sqrt(k w).
+    fn engage(&mut self, e: usize) -> Result<(), SolverError> {
+        let model = &self.model;
+        let el = &model.elements[e];
+        let (k, c) = el.latch_spring().unwrap_or_default();
+        let (_, rate) = el
+            .extension(&self.state.x, &self.state.v)
+            .unwrap_or_default();
+        self.core.x.copy_from_slice(&self.state.x);
+        let w = self.core.inverse_effective_mass(model, e)?;
+        let period_s = 2.0 * std::f64::consts::PI / (k * w).sqrt();
+        let t = self.state.t_s;
+        self.state.locks.push(LockEvent {
+            element: e,
+            name: el.name().to_string(),
+            time_s: t,
+            impulse_ns: 0.0,
+            energy_lost_j: 0.0,
+            closing_speed_m_s: rate,
+            peak_force_n: None,
+            time_of_peak_s: None,
+        });
+        let force_n = c * rate;
+        let sign = if rate >= 0.0 { 1.0 } else { -1.0 };
+        self.state.transients.push(LatchTransient {
+            element: e,
+            event: self.state.locks.len() - 1,
+            stiffness_n_per_m: k,
+            damping_n_s_per_m: c,
+            inv_mass_eff_per_kg: w,
+            sign,
+            period_s,
+            engaged_at_s: t,
+            force_n,
+            force_rate_n_s: f64::INFINITY, // rising: the peak is to come
+            window_max_n: sign * force_n,
+            window_min_n: sign * force_n,
+            window_end_s: t + period_s,
+            impulse_ns: 0.0,
+            dissipated_j: 0.0,
+        });
+        self.core.springs.push((e, k, c));
+        self.core.stats.latches += 1;
+        self.core.stats.compliant_latches += 1;
+        Ok(())
+    }
+
+    /// Longest step that resolves the engaged compliant latches: a fraction
+    /// of the period 2 pi / sqrt(sum_i k_i w_i), w_i the inverse effective
+    /// mass along latch i. That bounds the fastest mode the latches make
+    /// together (Rayleigh: omega^2 = max_u sum_i k_i (J_i u)^2 / u^T M u
+    /// <= sum_i k_i w_i), and is a single latch's own period.
+    pub(super) fn transient_step_s(&self) -> f64 {
+        let tr = &self.state.transients;
+        if tr.is_empty() {
+            return f64::INFINITY;
+        }
+        let omega2: f64 = tr
+            .iter()
+            .map(|t| t.stiffness_n_per_m * t.inv_mass_eff_per_kg)
+            .sum();
+        let peaked = tr
+            .iter()
+            .all(|t| self.state.locks[t.event].peak_force_n.is_some());
+        let per_period = if peaked {
+            self.settings.latch_settle_steps_per_period
+        } else {
+            self.settings.latch_steps_per_period
+        };
+        2.0 * std::f64::consts::PI / omega2.sqrt() / per_period
+    }
+
+    /// Turns rigid the compliant latches whose transient is over: the force
+    /// varied by at most `latch_settle_rel` of its peak over the last period,
+    /// or `latch_max_periods` have passed (a counted fallback). Returns how
+    /// many turned rigid.
+    pub(super) fn settle_transients(&mut self) -> Result<usize, SolverError> {
+        if self.state.transients.is_empty() {
+            return Ok(0);
+        }
+        self.core.stats.transient_substeps += 1;
+        let (t, st) = (self.state.t_s, &self.settings);
+        let mut due: Vec<usize> = Vec::new();
+        for tr in &self.state.transients {
+            let window_done = t >= tr.window_end_s - 1e-12 * tr.period_s;
+            let calm = self.state.locks[tr.event]
+                .peak_force_n
+                .is_some_and(|p| tr.window_max_n - tr.window_min_n <= st.latch_settle_rel * p);
+            let overdue = t - tr.engaged_at_s >= st.latch_max_periods * tr.period_s;
+            if (window_done && calm) || overdue {
+                due.push(tr.element);
+                if !(window_done && calm) {
+                    self.core.stats.fallbacks.latch_unsettled += 1;
+                }
+            }
+        }
+        // a new window for those whose window ended
+        for tr in &mut self.state.transients {
+            if t >= tr.window_end_s - 1e-12 * tr.period_s {
+                let f = tr.sign * tr.force_n;
+                (tr.window_max_n, tr.window_min_n) = (f, f);
+                tr.window_end_s += tr.period_s;
+            }
+        }
+        if due.is_empty() {
+            return Ok(0);
+        }
+        // per latch: the force impulse and dissipation of its transient, and
+        // the elastic energy 1/2 k g^2 it releases turning rigid
+        let mut settled: Vec<(usize, f64, f64)> = Vec::with_capacity(due.len());
+        for tr in self
+            .state
+            .transients
+            .iter()
+            .filter(|tr| due.contains(&tr.element))
+        {
+            let g = gap(&self.model, tr.element, &self.state.x);
+            let spring_j = 0.5 * tr.stiffness_n_per_m * g * g;
+            self.state.energy.latch_spring_energy_j -= spring_j;
+            self.state.energy.lock_loss_j += spring_j;
+            settled.push((tr.event, tr.impulse_ns, tr.dissipated_j + spring_j));
+        }
+        self.state
+            .transients
+            .retain(|tr| !due.contains(&tr.element));
+        self.core.springs.retain(|s| !due.contains(&s.0));
+        let jumps = self.lock_rigidly(&due)?;
+        for ((event, impulse_ns, lost_j), (impulse, lost, _)) in settled.into_iter().zip(jumps) {
+            let ev = &mut self.state.locks[event];
+            ev.impulse_ns = impulse_ns + impulse;
+            ev.energy_lost_j = lost_j + lost;
+        }
+        Ok(due.len())
+    }
+
+    /// Makes `elements` rigid members (locked) at the current state: the
+    /// velocity jump onto the new constraint set, the impulses split by least
+    /// work, the kinetic energy taken and the drive's work over the
+    /// projection's move booked as latch loss, and the deployed state
+    /// decided. Returns per element its impulse (N s), the energy it took
+    /// (J) and its closing rate before (m/s).
+    fn lock_rigidly(&mut self, elements: &[usize]) -> Result<Vec<(f64, f64, f64)>, SolverError> {
+        let (model, st) = (&self.model, &self.settings);
+        for &e in elements {
             self.state.locked[e] = true;
         }
         let core = &mut self.core;
@@ -62,10 +257,9 @@ impl Simulator {
         core.x.copy_from_slice(&self.state.x);
         core.v.copy_from_slice(&self.state.v);
         core.a_guess.copy_from_slice(&self.state.a);
-        // Least squares through the latch: the minimum-norm split of the
-        // impulses, and a truss that latches into its flat deployed state has
-        // rows only nearly redundant there, on which basic solves are
-        // ill-conditioned.
+        // Least squares through the latch: a truss that latches into its flat
+        // deployed state has rows only nearly redundant there, on which basic
+        // solves are ill-conditioned.
         core.velocity_jump(
             model,
             st,
@@ -75,34 +269,55 @@ impl Simulator {
         // A basic factorization of the new locked set at the latched state (the
         // next step starts from it): its probe counts the rank for large models.
         core.factor(model, SolveMode::Basic)?;
-        core.stats.latches += newly.len() as u64;
+        core.stats.latches += elements
+            .iter()
+            .filter(|&&e| model.elements[e].latch_spring().is_none())
+            .count() as u64;
+        // Impulses: the joint impulses of the jump, M (V- - V+) = A^T P, split
+        // among the rows by least work.
+        for i in 0..core.dx.len() {
+            core.dx[i] = model.mass[i] * (self.state.v[i] - core.v[i]);
+        }
+        core.least_work_split(model, self.opts.solver)?;
         let ke_before = self.state.kinetic_energy_j(model);
         let t = self.state.t_s;
-        for &e in &newly {
-            let b = core
-                .jac
-                .blocks
-                .iter()
-                .find(|b| b.element == e)
-                .expect("latched element has a row");
-            let (mu, rate) = (core.mu[b.row0], core.r[b.row0]);
-            self.state.locks.push(LockEvent {
-                element: e,
-                name: model.elements[e].name().to_string(),
-                time_s: t,
-                impulse_ns: mu.abs(),
-                energy_lost_j: 0.5 * mu * rate,
-                closing_speed_m_s: rate,
-            });
-        }
+        let jumps = elements
+            .iter()
+            .map(|&e| {
+                let b = core
+                    .jac
+                    .blocks
+                    .iter()
+                    .find(|b| b.element == e)
+                    .expect("latched element has a row");
+                let (mu, rate) = (core.mu[b.row0], core.r[b.row0]);
+                (mu.abs(), 0.5 * mu * rate, rate)
+            })
+            .collect();
         let s = &mut self.state;
+        // The projection moves the joints onto the lock length: by roundoff
+        // for a rigid latch found by the root search, by the deflection T/k
+        // for a compliant one turning rigid. That move takes no time, so the
+        // work the drive and gravity do over it goes with the latch's loss.
+        let moved_j = super::ledger::book_drive_work(
+            model,
+            &mut s.energy,
+            &s.cable_tension_cmd_n,
+            &s.cables,
+            &core.cables,
+            &s.x,
+            &core.x,
+        );
         s.x.copy_from_slice(&core.x);
         s.v.copy_from_slice(&core.v);
         s.a.copy_from_slice(&core.a);
         s.lambda.clone_from(&core.lambda);
+        for (o, n) in s.cables.iter_mut().zip(&core.cables) {
+            o.clone_from(n);
+        }
         s.max_violation_m = s.max_violation_m.max(core.violation_m);
         let ke_after = s.kinetic_energy_j(model);
-        s.energy.lock_loss_j += ke_before - ke_after;
+        s.energy.lock_loss_j += ke_before - ke_after + moved_j;
         self.state.mechanisms = self.mechanisms_now();
         // Rigid before every element latched: trusted from an SVD only (the
         // dense solver's, or one confirming a pivot rank; not past
@@ -111,13 +326,111 @@ impl Simulator {
         // deployment) is skipped.
         let deployed = self.all_locked()
             || (self.state.mechanisms == 0
+                && self.state.transients.is_empty()
                 && self.model.n_coords() <= self.settings.rank_check_max_coords
                 && (self.core.solver.rank().is_some()
                     || crate::solver::rank::of_jacobian(&self.core.jac) == self.model.n_coords()));
         if deployed {
             self.state.deployed = true;
-            self.state.deploy_time_s.get_or_insert(t);
+            // the instant the last latch engaged: now, or for compliant
+            // latches turning rigid after their transient, when they engaged
+            let settling = elements
+                .iter()
+                .all(|&e| self.state.locks.iter().any(|l| l.element == e));
+            let engaged_s = if settling {
+                self.state
+                    .locks
+                    .iter()
+                    .map(|l| l.time_s)
+                    .fold(f64::NEG_INFINITY, f64::max)
+            } else {
+                t
+            };
+            self.state.deploy_time_s.get_or_insert(engaged_s);
         }
-        Ok(newly.len())
+        Ok(jumps)
+    }
+}
+
+/// After an accepted step from t0 of length h: a compliant latch's tension
+/// and its rate at the new state, the peak of sign * T (the largest force
+/// through the latch) located inside the step on the cubic Hermite
+/// interpolant of T(t) from the values and rates at both ends, and the
+/// extremes over the current window. A peak is reported once the force has
+/// turned; a later maximum replaces it only where it exceeds it by more than
+/// `settle_rel` (an undamped latch repeats its first peak every period).
+#[allow(clippy::too_many_arguments)]
+pub(super) fn track_transient(
+    model: &Model,
+    tr: &mut LatchTransient,
+    ev: &mut LockEvent,
+    t0: f64,
+    h: f64,
+    (x, v, a): (&[f64], &[f64], &[f64]),
+    settle_rel: f64,
+) {
+    let el = &model.elements[tr.element];
+    let (Some(g), Some((l, rate))) = (el.lock_gap(x), el.extension(x, v)) else {
+        return;
+    };
+    // l'' = e . (a_b - a_a) + (|v_b - v_a|^2 - (e . (v_b - v_a))^2) / l
+    let (ja, jb) = (el.joints()[0], el.joints()[1]);
+    let (mut e_dot_a, mut w2) = (0.0, 0.0);
+    for k in 0..3 {
+        let e = (x[3 * jb + k] - x[3 * ja + k]) / l;
+        e_dot_a += e * (a[3 * jb + k] - a[3 * ja + k]);
+        w2 += (v[3 * jb + k] - v[3 * ja + k]).powi(2);
+    }
+    let accel = e_dot_a + (w2 - rate * rate) / l;
+    let (k, c) = (tr.stiffness_n_per_m, tr.damping_n_s_per_m);
+    let (f0, fd0) = (tr.sign * tr.force_n, tr.sign * tr.force_rate_n_s);
+    tr.force_n = k * g + c * rate;
+    tr.force_rate_n_s = k * rate + c * accel;
+    let (f1, fd1) = (tr.sign * tr.force_n, tr.sign * tr.force_rate_n_s);
+    tr.window_max_n = tr.window_max_n.max(f1);
+    tr.window_min_n = tr.window_min_n.min(f1);
+    // a maximum inside the step: the stationary point of the Hermite cubic
+    //   p(s) = h00 f0 + h10 h fd0 + h01 f1 + h11 h fd1,
+    //   p'(s) = 6 (s^2 - s)(f0 - f1) + h fd0 (3s^2 - 4s + 1) + h fd1 (3s^2 - 2s),
+    // a quadratic in s, where the rate turns from + to -
+    let mut best = (f1, t0 + h);
+    if fd0 > 0.0 && fd0.is_finite() && fd1 <= 0.0 {
+        let (qa, qb, qc) = (
+            6.0 * (f0 - f1) + 3.0 * h * (fd0 + fd1),
+            -6.0 * (f0 - f1) - 4.0 * h * fd0 - 2.0 * h * fd1,
+            h * fd0,
+        );
+        let p = |s: f64| {
+            let (s2, s3) = (s * s, s * s * s);
+            (2.0 * s3 - 3.0 * s2 + 1.0) * f0
+                + (s3 - 2.0 * s2 + s) * h * fd0
+                + (-2.0 * s3 + 3.0 * s2) * f1
+                + (s3 - s2) * h * fd1
+        };
+        let roots = if qa.abs() <= 1e-300 {
+            [(qb != 0.0).then(|| -qc / qb), None]
+        } else {
+            let disc = qb * qb - 4.0 * qa * qc;
+            if disc >= 0.0 {
+                let sq = disc.sqrt();
+                [Some((-qb - sq) / (2.0 * qa)), Some((-qb + sq) / (2.0 * qa))]
+            } else {
+                [None, None]
+            }
+        };
+        for s in roots.into_iter().flatten() {
+            if (0.0..=1.0).contains(&s) && p(s) > best.0 {
+                best = (p(s), t0 + s * h);
+            }
+        }
+    }
+    let turned = ev.peak_force_n.is_some() || fd1 <= 0.0;
+    if turned
+        && ev
+            .peak_force_n
+            .map_or(true, |p| best.0 > p * (1.0 + settle_rel))
+    {
+        ev.peak_force_n = Some(best.0);
+        ev.time_of_peak_s = Some(best.1);
     }
 }

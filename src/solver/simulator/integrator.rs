@@ -39,6 +39,22 @@ impl Core {
             );
             cable::add_forces(c, &self.cables[ci], &self.x, &mut self.q);
         }
+        // Engaged compliant latches: tension T = k (l - L) + c ldot along the
+        // sleeve, pulling its joints together when positive.
+        for &(e, k, c) in &self.springs {
+            let el = &model.elements[e];
+            let (Some(g), Some((l, rate))) = (el.lock_gap(&self.x), el.extension(&self.x, &self.v))
+            else {
+                continue;
+            };
+            let t = k * g + c * rate;
+            let (ja, jb) = (el.joints()[0], el.joints()[1]);
+            for k3 in 0..3 {
+                let f = t * (self.x[3 * jb + k3] - self.x[3 * ja + k3]) / l;
+                self.q[3 * ja + k3] += f;
+                self.q[3 * jb + k3] -= f;
+            }
+        }
         let g = model.gravity_m_s2;
         let damp_v = if self.implicit_h.is_some() {
             &self.v_star

@@ -163,19 +163,30 @@ impl Simulator {
         self.core.solver.diagnostics()
     }
 
-    /// The state's multipliers with the minimum-norm split among redundant
-    /// rows (member forces of a statically indeterminate latched truss, e.g.
-    /// sleeves that latched together): solver-independent. The sparse
-    /// backend's `State::lambda` gives the whole share to the rows it keeps
-    /// (same joint forces); this costs one least-squares solve there and
-    /// nothing with the dense backend, whose multipliers are minimum-norm.
-    pub fn min_norm_multipliers(&mut self) -> Result<Vec<f64>, SolverError> {
+    /// The state's multipliers (member forces, N, row order of the current
+    /// Jacobian; a bar's multiplier is minus its tension) with redundant
+    /// rows sharing by least work: among all multipliers with the state's
+    /// joint forces A^T lambda, the one minimizing sum L_i/(EA_i) lambda_i^2
+    /// (`crate::solver::least_work`). Solver-independent (the sparse
+    /// backend's `State::lambda` gives the whole share to the rows it keeps);
+    /// two least-squares solves with a backend of its own, so the trajectory
+    /// does not depend on how often it is called (the node calls it at its
+    /// publish rate).
+    pub fn least_work_multipliers(&mut self) -> Result<Vec<f64>, SolverError> {
         let (model, core, s) = (&self.model, &mut self.core, &self.state);
-        if core.multipliers_in_mode(model, self.opts.solver, &s.x, &s.lambda, SolveMode::MinNorm)? {
-            Ok(core.mu.clone())
-        } else {
-            Ok(s.lambda.clone())
-        }
+        core.least_work_multipliers(model, self.opts.solver, &s.x, &s.lambda)?;
+        Ok(core.mu.clone())
+    }
+
+    /// The force through a compliant latch while it engages (N, tension
+    /// positive: T = k (l - L_lock) + c ldot); None for a sleeve that is
+    /// free, latched rigid, or whose transient has settled.
+    pub fn latch_spring_force_n(&self, element: usize) -> Option<f64> {
+        self.state
+            .transients
+            .iter()
+            .find(|t| t.element == element)
+            .map(|t| t.force_n)
     }
 
     /// Sets a cable's motor-end tension from the next step on.
@@ -278,7 +289,9 @@ impl Simulator {
                     self.settings.max_substeps
                 )));
             }
-            let h = h_try.min(t_end - self.state.t_s);
+            let h = h_try
+                .min(t_end - self.state.t_s)
+                .min(self.transient_step_s());
             let (st, base) = (&self.settings, SolveMode::Basic);
             match self.core.newmark(&self.model, &self.state, h, st, base) {
                 Err(SolverError::NoConvergence { .. }) if h > dt * st.min_substep_fraction => {
@@ -308,7 +321,7 @@ impl Simulator {
         loop {
             let Some((target, s_hi)) = self.first_crossing(h, &not_real) else {
                 self.accept(h);
-                return Ok(0);
+                return self.settle_transients();
             };
             if s_hi < 1.0 {
                 self.core.save_trial(&mut self.trial_copy);
@@ -317,13 +330,16 @@ impl Simulator {
                 Some(h_star) => {
                     self.x_start.copy_from_slice(&self.state.x);
                     self.accept(h_star);
-                    let latched = self.latch()?;
+                    let settled = self.settle_transients()?;
+                    let latched = settled + self.latch()?;
                     // Nothing may have passed its lock without latching
                     // (a target short of its lock goes on in the next sub-step).
                     let (model, s) = (&self.model, &self.state);
                     let tol = self.settings.lock_tol_m;
+                    let held =
+                        |e: usize| s.locked[e] || s.transients.iter().any(|t| t.element == e);
                     let missed =
-                        events::crossed_unlatched(model, &s.locked, &self.x_start, &s.x, tol, None);
+                        events::crossed_unlatched(model, &held, &self.x_start, &s.x, tol, None);
                     if let Some(e) = missed {
                         return Err(SolverError::MissedLatch {
                             element: model.elements[e].name().to_string(),
@@ -356,6 +372,7 @@ fn blank_state(model: &Model) -> State {
         lambda: Vec::new(),
         energy: Energy::default(),
         locks: Vec::new(),
+        transients: Vec::new(),
         max_violation_m: 0.0,
         mechanisms: 0,
         deployed: false,

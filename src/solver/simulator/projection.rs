@@ -120,43 +120,18 @@ impl Core {
         Ok(())
     }
 
-    /// The multipliers S^+ (A M^-1 A^T lambda) of the state (x, lambda), solved
-    /// in `mode`, into `mu`: the same joint forces A^T lambda, split among
-    /// redundant rows as that mode splits them (least squares for `MinNorm`).
-    /// Returns false (and leaves `mu`) where the backend's multipliers do not
-    /// depend on the mode (they are minimum-norm already).
-    pub fn multipliers_in_mode(
+    /// The state's (x, lambda) multipliers with the same joint forces
+    /// A^T lambda, split among redundant rows by least work, into `mu`.
+    pub fn least_work_multipliers(
         &mut self,
         model: &Model,
         kind: SolverKind,
         x: &[f64],
         lambda: &[f64],
-        mode: SolveMode,
-    ) -> Result<bool, SolverError> {
-        // A second instance of the backend does the solve, so the stepping
-        // solver's kept factorizations, counters and re-probe schedule stay as
-        // they were: the trajectory does not depend on how often this is
-        // called (the node calls it at its publish rate).
-        let aux = self.aux_solver.get_or_insert_with(|| kind.make());
-        if !aux.distinguishes_modes() {
-            return Ok(false);
-        }
+    ) -> Result<(), SolverError> {
         self.x.copy_from_slice(x);
         self.jac.fill(model, &self.x);
-        // r = S lambda, consistent by construction
-        self.jac.mul_t(lambda, &mut self.dx);
-        for (d, w) in self.dx.iter_mut().zip(&model.inv_mass) {
-            *d *= w;
-        }
-        self.jac.mul(&self.dx, &mut self.r);
-        aux.factor(&self.jac, &model.inv_mass, mode)?;
-        aux.correction(
-            &self.jac,
-            &model.inv_mass,
-            &self.r,
-            &mut self.dx,
-            &mut self.mu,
-        )?;
-        Ok(true)
+        self.jac.mul_t(lambda, &mut self.dx); // f = A^T lambda
+        self.least_work_split(model, kind)
     }
 }

@@ -1,0 +1,168 @@
+//! Least-work sharing of redundant forces and impulses (Menabrea; the static
+//! force method).
+//!
+//! With redundant rows (states of self-stress, A^T s = 0) the multipliers of a
+//! rigid model are not unique: any self-stress can be added to lambda without
+//! changing the joint forces f = A^T lambda or the motion. Elastic members
+//! decide the split. Among all lambda with the same f, the physical one
+//! minimizes the complementary energy
+//!
+//!   U*(lambda) = 1/2 sum_i c_i lambda_i^2,   c_i = L_i / (E A_i)  (m/N),
+//!
+//! (Menabrea's theorem of least work; for a linear-elastic truss it is the
+//! stiffness-method answer N = (EA/L) e^T u with K u = f, K = A^T C^-1 A).
+//! With W = diag(c)^(-1/2) and lambda = W mu, U* = |mu|^2 / 2 and the
+//! constraint reads (W A)^T mu = f: mu is the minimum-norm solution, which is
+//! the least-squares solve every backend has, on the row-scaled Jacobian:
+//!
+//!   mu = S_w^+ (W A) M^-1 f,   S_w = (W A) M^-1 (W A)^T.
+//!
+//! Equal compliances give the minimum-norm split; two parallel members share
+//! in proportion to their stiffness EA/L. The same function serves member
+//! forces (f = A^T lambda of the state) and latch impulses (f = M (V- - V+),
+//! the joint impulses of the velocity jump).
+//!
+//! Rows that are not members (pivots, coplanarity, supports, hinges) are
+//! rigid, as the stiffness method takes supports and pins: compliance 0. The
+//! row scaling needs c > 0, so they get c = eps c_min (c_min: the stiffest
+//! member's) and the limit eps -> 0 is taken by Richardson extrapolation:
+//! lambda(eps) is smooth in eps with lambda(eps) = lambda_0 + eps lambda_1 +
+//! O(eps^2), so 2 lambda(eps/2) - lambda(eps) = lambda_0 + O(eps^2). With
+//! eps = 1e-6 the extrapolated forces are rigid-support forces to ~1e-12,
+//! where one solve at eps = 1e-10 was off by 1.5e-11 (three-bar oracle) but
+//! its row scaling (1e5) cost the sparse backend's regularized solve up to
+//! 2.7e-6 of accuracy against dense (1-unit mast); at eps = 1e-6 the two
+//! agree to 5e-10.
+
+use super::jacobian::Jacobian;
+use super::linsolve::{ConstraintSolver, SolveMode, SolverKind};
+use super::model::Model;
+use super::SolverError;
+
+/// A backend instance of its own (the stepping solver's kept factorizations,
+/// counters and re-probe schedule are untouched, so the trajectory does not
+/// depend on how often forces are asked for) and the row-scaled Jacobian.
+pub struct LeastWork {
+    solver: Box<dyn ConstraintSolver>,
+    jac: Jacobian,
+    /// Per row of `jac`: c_i (m/N) for members, NaN for rigid rows.
+    compliance: Vec<f64>,
+    /// w_i = c_i^(-1/2) at the current eps.
+    weight: Vec<f64>,
+    /// lambda at eps (the first of the two solves).
+    lambda_eps: Vec<f64>,
+    r: Vec<f64>,
+    dx: Vec<f64>,
+    mu: Vec<f64>,
+}
+
+impl LeastWork {
+    pub fn new(kind: SolverKind) -> LeastWork {
+        LeastWork {
+            solver: kind.make(),
+            jac: Jacobian::default(),
+            compliance: Vec::new(),
+            weight: Vec::new(),
+            lambda_eps: Vec::new(),
+            r: Vec::new(),
+            dx: Vec::new(),
+            mu: Vec::new(),
+        }
+    }
+
+    /// Row compliances c_i (m/N) of the active rows of `jac`: NaN for rows
+    /// that are not members (rigid).
+    pub fn row_compliance(model: &Model, jac: &Jacobian, out: &mut Vec<f64>) {
+        out.resize(jac.nrows, f64::NAN);
+        for b in &jac.blocks {
+            let c = &mut out[b.row0..b.row0 + b.rows];
+            model.elements[b.element].row_compliance_m_per_n(true, model.axial_stiffness_n, c);
+        }
+    }
+
+    /// The least-work multipliers (into `lambda`, row order of `jac`) whose
+    /// joint forces are `f` (N, or N s for impulses): `jac` is filled at the
+    /// configuration and `f` must lie in the range of A^T (it is A^T of some
+    /// multipliers, or M times a velocity jump onto null(A)).
+    pub fn multipliers(
+        &mut self,
+        model: &Model,
+        jac: &Jacobian,
+        f: &[f64],
+        lambda: &mut [f64],
+    ) -> Result<(), SolverError> {
+        if self.jac.structure_id != jac.structure_id || self.jac.nrows != jac.nrows {
+            self.jac = jac.clone();
+            Self::row_compliance(model, jac, &mut self.compliance);
+            self.weight.resize(jac.nrows, 0.0);
+            self.lambda_eps.resize(jac.nrows, 0.0);
+            self.r.resize(jac.nrows, 0.0);
+            self.mu.resize(jac.nrows, 0.0);
+            self.dx.resize(jac.ncols, 0.0);
+        }
+        let mut lambda_eps = std::mem::take(&mut self.lambda_eps);
+        let solved = self
+            .solve(model, jac, f, RIGID_ROW_EPS, &mut lambda_eps)
+            .and_then(|()| self.solve(model, jac, f, 0.5 * RIGID_ROW_EPS, lambda));
+        for (l, le) in lambda.iter_mut().zip(&lambda_eps) {
+            *l = 2.0 * *l - le; // Richardson: the limit of rigid non-member rows
+        }
+        self.lambda_eps = lambda_eps;
+        solved?;
+        if lambda.iter().any(|v| !v.is_finite()) {
+            return Err(SolverError::NonFinite("least-work multipliers".into()));
+        }
+        Ok(())
+    }
+
+    /// lambda minimizing sum c_i lambda_i^2 with A^T lambda = f, rows that are
+    /// not members at c = eps c_min.
+    fn solve(
+        &mut self,
+        model: &Model,
+        jac: &Jacobian,
+        f: &[f64],
+        eps: f64,
+        lambda: &mut [f64],
+    ) -> Result<(), SolverError> {
+        let rigid = eps * model.stiffest_compliance_m_per_n;
+        for (w, c) in self.weight.iter_mut().zip(&self.compliance) {
+            *w = 1.0 / if c.is_finite() { *c } else { rigid }.sqrt();
+        }
+        // rows of W A: each block's row-major rows scaled by their weight
+        self.jac.values.copy_from_slice(&jac.values);
+        for b in &self.jac.blocks {
+            let width = Jacobian::width(b);
+            for r in 0..b.rows {
+                let w = self.weight[b.row0 + r];
+                let start = b.offset + r * width;
+                for v in &mut self.jac.values[start..start + width] {
+                    *v *= w;
+                }
+            }
+        }
+        // mu = S_w^+ r with r = (W A) M^-1 f; lambda = W mu
+        for ((d, fi), im) in self.dx.iter_mut().zip(f).zip(&model.inv_mass) {
+            *d = fi * im;
+        }
+        self.jac.mul(&self.dx, &mut self.r);
+        self.solver
+            .factor(&self.jac, &model.inv_mass, SolveMode::MinNorm)?;
+        self.solver.correction(
+            &self.jac,
+            &model.inv_mass,
+            &self.r,
+            &mut self.dx,
+            &mut self.mu,
+        )?;
+        for ((l, m), w) in lambda.iter_mut().zip(&self.mu).zip(&self.weight) {
+            *l = m * w;
+        }
+        Ok(())
+    }
+}
+
+/// Compliance of rows that are not members, relative to the stiffest
+/// member's, at the first of the two solves whose Richardson extrapolation
+/// gives the rigid limit (see the module notes).
+const RIGID_ROW_EPS: f64 = 1e-6;

@@ -1,0 +1,379 @@
+//! Latch loads engineers size hardware by (issue 11), against closed forms:
+//! least-work sharing of redundant forces and impulses by member stiffness.
+
+use truss_deploy::model::file::parse;
+use truss_deploy::solver::{Options, Simulator, SolverKind};
+
+fn opts(kind: SolverKind) -> Options {
+    Options {
+        solver: kind,
+        ..Options::default()
+    }
+}
+
+/// A held at the origin; B (mass m, held in y and z) on the x axis at
+/// `start` m, pulled towards A by a frictionless cable of tension F. Two
+/// sleeves join the same two joints and latch together at `lock` m; their
+/// EA are `ea1` and `ea2` (N).
+fn parallel_sleeves_model(m: f64, f: f64, start: f64, lock: f64, ea1: f64, ea2: f64) -> String {
+    format!(
+        r#"
+[model]
+name = "parallel_sleeves"
+[[joint]]
+name = "A"
+position_m = [0.0, 0.0, 0.0]
+mass_kg = 1.0
+[[joint]]
+name = "B"
+position_m = [{start}, 0.0, 0.0]
+mass_kg = {m}
+[[element]]
+type = "support"
+name = "A_held"
+joints = ["A"]
+fix = "xyz"
+[[element]]
+type = "support"
+name = "B_yz"
+joints = ["B"]
+fix = "yz"
+[[element]]
+type = "sleeve"
+name = "S1"
+joints = ["A", "B"]
+lock_length_m = {lock}
+axial_stiffness_n = {ea1}
+[[element]]
+type = "sleeve"
+name = "S2"
+joints = ["A", "B"]
+lock_length_m = {lock}
+axial_stiffness_n = {ea2}
+[[cable]]
+name = "pull"
+path = ["A", "B"]
+tension_n = {f}
+max_tension_n = {f}
+"#
+    )
+}
+
+/// Two sleeves on the same joints latching together share the impulse m v
+/// in proportion to their stiffness EA/L (least work), not equally (the
+/// minimum-norm split gave 0.5 m v each whatever the stiffness).
+#[test]
+fn parallel_sleeves_share_the_latch_impulse_by_stiffness() {
+    let (m, f, start, lock): (f64, f64, f64, f64) = (0.4, 3.0, 1.0, 0.6);
+    let v = (2.0 * f * (start - lock) / m).sqrt(); // closing speed at the latch
+    for kind in [SolverKind::Dense, SolverKind::Sparse] {
+        let model = parse(
+            &parallel_sleeves_model(m, f, start, lock, 3.0e6, 1.0e6),
+            "parallel.toml",
+        )
+        .unwrap()
+        .model;
+        let mut sim = Simulator::new(model, opts(kind)).unwrap();
+        for _ in 0..200 {
+            if sim.state().locks.len() == 2 {
+                break;
+            }
+            sim.step(0.05).unwrap();
+        }
+        let locks = &sim.state().locks;
+        assert_eq!(locks.len(), 2, "{kind:?}: both sleeves latch");
+        assert!((locks[0].time_s - locks[1].time_s).abs() < 1e-12);
+        let p = |name: &str| locks.iter().find(|l| l.name == name).unwrap().impulse_ns;
+        let (p1, p2) = (p("S1"), p("S2"));
+        let total = m * v;
+        assert!(
+            (p1 - 0.75 * total).abs() <= 1e-6 * total && (p2 - 0.25 * total).abs() <= 1e-6 * total,
+            "{kind:?}: impulses {p1} and {p2}, expected {} and {} (3:1 of m v = {total})",
+            0.75 * total,
+            0.25 * total
+        );
+        // and the energy lost, 1/2 m v^2, is split alike (1/2 P_i v)
+        let lost: f64 = locks.iter().map(|l| l.energy_lost_j).sum();
+        assert!((lost - 0.5 * m * v * v).abs() <= 1e-6 * 0.5 * m * v * v);
+        println!(
+            "{kind:?}: impulses {p1:.9} / {p2:.9} N s (ratio {:.9})",
+            p1 / p2
+        );
+    }
+}
+
+/// A statically indeterminate plane truss: three bars from held joints
+/// P1..P3 to one joint Q (held in y) carrying its weight under gravity
+/// (gx, 0, gz). The bar forces are the stiffness method's, N_i = k_i e_i.u
+/// with K u = f, K = sum k_i e_i e_i^T, k_i = EA_i / L_i.
+#[test]
+fn three_bar_truss_forces_are_the_stiffness_method_ones() {
+    let p: [[f64; 3]; 3] = [[-1.0, 0.0, 0.0], [0.2, 0.0, 0.0], [1.5, 0.0, 0.0]];
+    let q: [f64; 3] = [0.3, 0.0, -1.1];
+    let ea = [2.0e6, 5.0e6, 3.0e6];
+    let (m, g) = (2.5, [1.7, 0.0, -9.81]);
+    let mut text = format!(
+        "[model]\nname = \"three_bar\"\n[settings]\ngravity_m_s2 = [{}, 0.0, {}]\n\
+         [[joint]]\nname = \"Q\"\nposition_m = [{}, 0.0, {}]\nmass_kg = {m}\n\
+         [[element]]\ntype = \"support\"\nname = \"Q_y\"\njoints = [\"Q\"]\nfix = \"y\"\n",
+        g[0], g[2], q[0], q[2]
+    );
+    for i in 0..3 {
+        text += &format!(
+            "[[joint]]\nname = \"P{i}\"\nposition_m = [{}, 0.0, {}]\nmass_kg = 1.0\n\
+             [[element]]\ntype = \"support\"\nname = \"P{i}_held\"\njoints = [\"P{i}\"]\nfix = \"xyz\"\n\
+             [[element]]\ntype = \"bar\"\nname = \"B{i}\"\njoints = [\"P{i}\", \"Q\"]\naxial_stiffness_n = {}\n",
+            p[i][0], p[i][2], ea[i]
+        );
+    }
+    // stiffness method in the x-z plane
+    let mut e = [[0.0; 2]; 3];
+    let mut k = [0.0; 3];
+    let mut kk = [[0.0; 2]; 2];
+    for i in 0..3 {
+        let d = [q[0] - p[i][0], q[2] - p[i][2]];
+        let l = (d[0] * d[0] + d[1] * d[1]).sqrt();
+        e[i] = [d[0] / l, d[1] / l];
+        k[i] = ea[i] / l;
+        for a in 0..2 {
+            for b in 0..2 {
+                kk[a][b] += k[i] * e[i][a] * e[i][b];
+            }
+        }
+    }
+    let f = [m * g[0], m * g[2]];
+    let det = kk[0][0] * kk[1][1] - kk[0][1] * kk[1][0];
+    let u = [
+        (kk[1][1] * f[0] - kk[0][1] * f[1]) / det,
+        (kk[0][0] * f[1] - kk[1][0] * f[0]) / det,
+    ];
+    let n: Vec<f64> = (0..3)
+        .map(|i| k[i] * (e[i][0] * u[0] + e[i][1] * u[1]))
+        .collect();
+    let scale = n.iter().fold(0.0f64, |a, b| a.max(b.abs()));
+    for kind in [SolverKind::Dense, SolverKind::Sparse] {
+        let model = parse(&text, "three_bar.toml").unwrap().model;
+        let bar_row = |name: &str| {
+            let e = model
+                .elements
+                .iter()
+                .position(|el| el.name() == name)
+                .unwrap();
+            e
+        };
+        let rows: Vec<usize> = (0..3).map(|i| bar_row(&format!("B{i}"))).collect();
+        let mut sim = Simulator::new(model, opts(kind)).unwrap();
+        // at rest: no joint can move, so the multipliers are the static forces
+        let amax = sim.state().a.iter().fold(0.0f64, |a, b| a.max(b.abs()));
+        assert!(
+            amax < 1e-12,
+            "{kind:?}: the truss is rigid (|a| = {amax:e})"
+        );
+        let lambda = sim.least_work_multipliers().unwrap();
+        let jac = sim.jacobian();
+        let mut worst = 0.0f64;
+        for i in 0..3 {
+            let b = jac.blocks.iter().find(|b| b.element == rows[i]).unwrap();
+            // Phi = |Q - P| - L: the force on Q is e lambda, so tension is -lambda
+            let tension = -lambda[b.row0];
+            worst = worst.max((tension - n[i]).abs() / scale);
+        }
+        println!("{kind:?}: stiffness method {n:?}, worst relative error {worst:.2e}");
+        assert!(
+            worst <= 1e-9,
+            "{kind:?}: bar forces off by {worst:e} of the largest"
+        );
+    }
+}
+
+/// The parallel-sleeve model with the sleeves' latches compliant: stiffness
+/// and damping per sleeve (one sleeve when `k2` is 0).
+fn compliant_model(
+    m: f64,
+    f: f64,
+    start: f64,
+    lock: f64,
+    k1: f64,
+    c1: f64,
+    k2: f64,
+    c2: f64,
+) -> String {
+    let mut text = parallel_sleeves_model(m, f, start, lock, 6e6, 6e6);
+    text = text.replacen(
+        "axial_stiffness_n = 6000000\n",
+        &format!("axial_stiffness_n = 6000000\nlatch_stiffness_n_per_m = {k1}\nlatch_damping_n_s_per_m = {c1}\n"),
+        1,
+    );
+    if k2 > 0.0 {
+        text = text.replacen(
+            "axial_stiffness_n = 6000000\n[[cable]]",
+            &format!("axial_stiffness_n = 6000000\nlatch_stiffness_n_per_m = {k2}\nlatch_damping_n_s_per_m = {c2}\n[[cable]]"),
+            1,
+        );
+    } else {
+        // drop the second sleeve
+        let at = text
+            .find("[[element]]\ntype = \"sleeve\"\nname = \"S2\"")
+            .unwrap();
+        let end = text[at..].find("[[cable]]").unwrap() + at;
+        text.replace_range(at..end, "");
+    }
+    assert!(text.contains("latch_stiffness_n_per_m"), "{text}");
+    text
+}
+
+/// Closed form of a mass m arriving at speed v on a spring-damper (k, c)
+/// under a steady pull F: m d'' + c d' + k d = F, d(0) = 0, d'(0) = v. The
+/// force through the latch f = k d + c d' peaks where f' = 0; f' is a damped
+/// sinusoid e^(-s t) (D1 cos wd t + D2 sin wd t), so the first peak is at
+/// wd t = the first positive angle with tan = -D1/D2. Returns (t_peak, f_peak).
+fn damped_latch_peak(m: f64, k: f64, c: f64, f: f64, v: f64) -> (f64, f64) {
+    let w0 = (k / m).sqrt();
+    let zeta = c / (2.0 * (k * m).sqrt());
+    let (s, wd) = (zeta * w0, w0 * (1.0 - zeta * zeta).sqrt());
+    let c1 = -f / k;
+    let c2 = (v + s * c1) / wd;
+    // d' = e^(-s t) (P cos + Q sin), d'' = e^(-s t) (R cos + U sin)
+    let (p, q) = (-s * c1 + wd * c2, -s * c2 - wd * c1);
+    let (r, u) = (-s * p + wd * q, -s * q - wd * p);
+    let (d1, d2) = (k * p + c * r, k * q + c * u);
+    let mut th = (-d1 / d2).atan();
+    if th <= 0.0 {
+        th += std::f64::consts::PI;
+    }
+    let t = th / wd;
+    let e = (-s * t).exp();
+    let d = f / k + e * (c1 * (wd * t).cos() + c2 * (wd * t).sin());
+    let dd = e * (p * (wd * t).cos() + q * (wd * t).sin());
+    (t, k * d + c * dd)
+}
+
+fn run_until_settled(sim: &mut Simulator, dt: f64, max_steps: usize) {
+    for _ in 0..max_steps {
+        if sim.state().deployed {
+            return;
+        }
+        sim.step(dt).unwrap();
+    }
+    panic!("not deployed (settled) after {max_steps} steps");
+}
+
+/// A mass m at speed v into a latch of stiffness k under a constant cable
+/// pull F peaks at F + sqrt(F^2 + k m v^2) (undamped) or at the damped
+/// oscillator's closed-form peak, at dt = 0.05 s, 25x the latch's period.
+#[test]
+fn a_compliant_latch_peaks_at_the_closed_form_force() {
+    let (m, f, start, lock): (f64, f64, f64, f64) = (0.4, 3.0, 1.0, 0.6);
+    let v = (2.0 * f * (start - lock) / m).sqrt();
+    let t_engage = (2.0 * (start - lock) * m / f).sqrt();
+    let k = 4.0e6;
+    for (c, what) in [
+        (0.0, "undamped"),
+        (0.2 * 2.0 * (k * m).sqrt(), "damped, zeta 0.2"),
+    ] {
+        let (t_peak, f_peak) = damped_latch_peak(m, k, c, f, v);
+        if c == 0.0 {
+            let plain = f + (f * f + k * m * v * v).sqrt();
+            assert!(
+                (f_peak - plain).abs() <= 1e-12 * plain,
+                "closed forms agree"
+            );
+        }
+        let model = parse(
+            &compliant_model(m, f, start, lock, k, c, 0.0, 0.0),
+            "latch.toml",
+        )
+        .unwrap()
+        .model;
+        let mut sim = Simulator::new(model, Options::default()).unwrap();
+        // Through the engagement in short outer steps, to check the ledger
+        // while the latch holds elastic energy: kinetic + spring = work in -
+        // losses, with the latch damper's loss.
+        while sim.state().t_s + 0.05 < t_engage {
+            sim.step(0.05).unwrap();
+        }
+        while sim.state().t_s < t_engage + 1.5 * t_peak {
+            sim.step(1e-4).unwrap();
+        }
+        let s = sim.state();
+        assert_eq!(s.transients.len(), 1, "{what}: the latch is still elastic");
+        let bal = s.energy.balance_rel_error(s.kinetic_energy_j(sim.model()));
+        println!(
+            "{what}: mid-transient energy balance {bal:.1e} (spring {:.6} J, damper {:.6} J, kinetic {:.6} J)",
+            s.energy.latch_spring_energy_j,
+            s.energy.latch_damping_loss_j,
+            s.kinetic_energy_j(sim.model())
+        );
+        assert!(
+            bal <= 1e-6,
+            "{what}: energy balance error {bal:e} during the transient"
+        );
+        run_until_settled(&mut sim, 0.05, 100);
+        let ev = &sim.state().locks[0];
+        let peak = ev.peak_force_n.expect("a compliant latch reports its peak");
+        let t_of_peak = ev.time_of_peak_s.unwrap();
+        let err = (peak - f_peak).abs() / f_peak;
+        let t_err = (t_of_peak - (t_engage + t_peak)).abs();
+        println!(
+            "{what}: peak {peak:.6} N vs {f_peak:.6} N (rel {err:.1e}), at {t_of_peak:.7} s vs {:.7} s ({t_err:.1e} s), engaged at {:.9} s; period {:.2e} s; {} steps",
+            t_engage + t_peak,
+            ev.time_s,
+            2.0 * std::f64::consts::PI * (m / k).sqrt(),
+            sim.state().steps
+        );
+        assert!(err <= 1e-4, "{what}: peak force off by {err:e}");
+        assert!((ev.time_s - t_engage).abs() <= 1e-9, "engagement time");
+        assert!(
+            t_err <= 1e-3 * 2.0 * std::f64::consts::PI * (m / k).sqrt(),
+            "{what}: time of peak off by {t_err:e} s"
+        );
+        // after it turned rigid (its spring energy and the drive's work over
+        // the deflection it is moved back by go with the latch's loss)
+        let s = sim.state();
+        let bal = s.energy.balance_rel_error(s.kinetic_energy_j(sim.model()));
+        println!(
+            "{what}: energy balance {bal:.1e}, latch damping {:.6} J, lock loss {:.6} J",
+            s.energy.latch_damping_loss_j, s.energy.lock_loss_j
+        );
+        assert!(bal <= 1e-6, "{what}: energy balance error {bal:e}");
+    }
+}
+
+/// Two compliant latches in parallel share the load by stiffness: peaks
+/// 3:1 for k 3:1 (dampers in the same ratio), the total the closed form of
+/// their sum.
+#[test]
+fn parallel_compliant_latches_share_by_stiffness() {
+    let (m, f, start, lock): (f64, f64, f64, f64) = (0.4, 3.0, 1.0, 0.6);
+    let v = (2.0 * f * (start - lock) / m).sqrt();
+    let (k1, k2) = (3.0e6, 1.0e6);
+    let zeta = 0.1;
+    let c_total = zeta * 2.0 * ((k1 + k2) * m).sqrt();
+    let (c1, c2) = (0.75 * c_total, 0.25 * c_total);
+    let model = parse(
+        &compliant_model(m, f, start, lock, k1, c1, k2, c2),
+        "pair.toml",
+    )
+    .unwrap()
+    .model;
+    let mut sim = Simulator::new(model, Options::default()).unwrap();
+    run_until_settled(&mut sim, 0.05, 100);
+    let locks = &sim.state().locks;
+    let p = |n: &str| {
+        locks
+            .iter()
+            .find(|l| l.name == n)
+            .unwrap()
+            .peak_force_n
+            .unwrap()
+    };
+    let (p1, p2) = (p("S1"), p("S2"));
+    let (_, total) = damped_latch_peak(m, k1 + k2, c_total, f, v);
+    println!(
+        "peaks {p1:.6} / {p2:.6} N (ratio {:.9}), sum {:.6} vs {total:.6}",
+        p1 / p2,
+        p1 + p2
+    );
+    assert!((p1 / p2 - 3.0).abs() <= 1e-6, "ratio {}", p1 / p2);
+    assert!(((p1 + p2) - total).abs() <= 1e-4 * total);
+}
