@@ -536,3 +536,34 @@ fn the_rerouted_ring_keeps_its_energy_balance() {
         "{s:#}"
     );
 }
+
+/// `generate` with options that make an invalid model: exit 2, nothing
+/// written, and the message does not name the output as if it had been.
+#[test]
+fn generate_with_bad_options_exits_2_and_writes_nothing() {
+    let d = temp_dir("generate");
+    let out = d.join("tiny.toml");
+    let o = run(&[
+        "generate",
+        "mast",
+        "--rod-length-m",
+        "1e-12",
+        "-o",
+        &out.display().to_string(),
+    ]);
+    let err = text(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("zero-length") && err.contains("nothing was written"),
+        "{err}"
+    );
+    assert!(!err.contains("tiny.toml"), "{err}");
+    assert!(files_in(&d).is_empty(), "{:?}", files_in(&d));
+    let o = run(&["generate", "ring", "-o", &d.display().to_string()]);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o.stderr));
+    assert!(
+        text(&o.stderr).contains("is a directory"),
+        "{}",
+        text(&o.stderr)
+    );
+}

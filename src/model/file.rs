@@ -13,11 +13,18 @@
 //! gravity_m_s2 = [0.0, 0.0, 0.0]
 //! damping_n_s_per_m = 0.0    # viscous, on each joint's velocity
 //!
+//! [checks]                   # all optional: solver::checks::RunChecks
+//! energy_balance_rel_tol = 1e-2   # a run whose energy balance is off by more stops (exit 1)
+//! stall_rel_motion = 1e-7    # at rest: no joint moves this fraction of the size ...
+//! stall_time_s = 1.0         # ... within this time; so long at rest: `stalled`
+//! max_steps = 2000000        # step budget of one run
+//!
 //! [[joint]]
 //! name = "L0"
 //! position_m = [0.0, 0.0, 0.0]
 //! mass_kg = 0.15
-//! reference_m = [0.0, 0.0, 0.0]   # deployed position (optional, all joints or none)
+//! reference_m = [0.0, 0.0, 0.0]   # deployed position (optional, all joints or none;
+//!                                 # must satisfy every element, sleeves latched)
 //!
 //! [[element]]
 //! type = "scissor"           # see `truss-deploy analyze --help` / elements::REGISTRY
