@@ -11,7 +11,7 @@
 use super::output::{check_outputs, write_atomic, AtomicFile};
 use super::{interrupt, make_simulator_from, plot, Failure, SolverArg};
 use crate::solver::checks::{self, RunChecks, StallWatch};
-use crate::solver::{Energy, LockEvent, Simulator};
+use crate::solver::{Energy, LockEvent, Simulator, SolverStats};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
@@ -111,17 +111,12 @@ pub struct SimulateJson {
     /// Why the run stopped, and the sentence that says so.
     pub stop_reason: StopReason,
     pub stop_message: String,
-    /// The solver's counters (factorizations; the backend's own in `backend`).
-    pub solver_stats: SolverStats,
     /// Set when the run stopped on an error (the same as `stop_message`);
     /// everything above is what was computed until then.
     pub error: Option<String>,
-}
-
-#[derive(Serialize)]
-pub struct SolverStats {
-    pub factorizations: u64,
-    pub backend: String,
+    /// What the solver did: steps, sub-steps, iterations, factorizations,
+    /// solves, fallbacks by kind, latch searches.
+    pub solver_stats: SolverStats,
 }
 
 fn check_positive(name: &str, v: Option<f64>) -> Result<(), Failure> {
@@ -375,10 +370,7 @@ pub fn run(a: SimulateArgs) -> Result<(), Failure> {
         locks: s.locks.clone(),
         stop_reason: reason,
         stop_message: message.clone(),
-        solver_stats: SolverStats {
-            factorizations: sim.factorizations(),
-            backend: sim.solver_diagnostics(),
-        },
+        solver_stats: sim.solver_stats().clone(),
         error: (reason == StopReason::Error).then(|| message.clone()),
     };
     print_summary(&summary);

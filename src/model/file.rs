@@ -18,6 +18,8 @@
 //! stall_rel_motion = 1e-7    # at rest: no joint moves this fraction of the size ...
 //! stall_time_s = 1.0         # ... within this time; so long at rest: `stalled`
 //! max_steps = 2000000        # step budget of one run
+//! [solver]                   # all optional: tolerances and iteration limits,
+//! newmark_max_iterations = 60  # keys and defaults in solver::settings
 //!
 //! [[joint]]
 //! name = "L0"
@@ -45,7 +47,7 @@
 
 use crate::solver::checks::RunChecks;
 use crate::solver::elements::{ElementSpec, Param};
-use crate::solver::{Cable, Joint, Model, ModelParts, SolverError};
+use crate::solver::{Cable, Joint, Model, ModelParts, SolverError, SolverSettings};
 use serde::Deserialize;
 use std::collections::BTreeMap;
 use std::fmt;
@@ -187,6 +189,7 @@ struct FileSpec {
     settings: Settings,
     #[serde(default)]
     checks: ChecksSpec,
+    solver: Option<Spanned<SolverSettings>>,
     #[serde(default, rename = "joint")]
     joints: Vec<Spanned<JointSpec>>,
     #[serde(default, rename = "element")]
@@ -245,6 +248,14 @@ pub fn parse(text: &str, file: &str) -> Result<LoadedModel, ModelFileError> {
         )
     })?;
     let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
+    if let Some(solver) = &spec.solver {
+        solver.get_ref().validate().map_err(|m| {
+            err(
+                Some(solver.span()),
+                format!("{m}; see `[solver]` in the README (section Model files)"),
+            )
+        })?;
+    }
     let s = &spec.settings;
     let settings_span = settings_line(text);
     for (key, v, min_exclusive) in [
@@ -490,7 +501,7 @@ pub fn parse(text: &str, file: &str) -> Result<LoadedModel, ModelFileError> {
         dt_s: s.dt_s,
         end_time_s: s.end_time_s,
     };
-    let model = Model::build(parts).map_err(|(i, e)| {
+    let mut model = Model::build(parts).map_err(|(i, e)| {
         let msg = e.to_string();
         // Model::build reports element errors by element index, cable errors by cable index.
         let span = if msg.starts_with("element") {
@@ -502,7 +513,9 @@ pub fn parse(text: &str, file: &str) -> Result<LoadedModel, ModelFileError> {
         };
         err(span, msg)
     })?;
-    if let Some((e, row, residual)) = model.initial_violation(1e-6) {
+    model.solver = spec.solver.map(Spanned::into_inner).unwrap_or_default();
+    let limit_m = model.solver.initial_tol_m;
+    if let Some((e, row, residual)) = model.initial_violation(limit_m) {
         let el = &model.elements[e];
         let span = element_spans.get(e).cloned();
         let e = SolverError::InitialViolation {
@@ -510,6 +523,7 @@ pub fn parse(text: &str, file: &str) -> Result<LoadedModel, ModelFileError> {
             kind: el.kind(),
             row,
             residual_m: residual,
+            limit_m,
         };
         return Err(err(span, e.to_string()));
     }

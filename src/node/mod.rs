@@ -674,6 +674,7 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
         summary.publications,
         summary.overruns
     );
+    println!("truss_deploy: solver stats: {}", sim.solver_stats().line());
     Ok(summary)
 }
 
