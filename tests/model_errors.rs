@@ -409,14 +409,14 @@ fn cases() -> Vec<Case> {
         case(
             "NaN in [settings]",
             vec![("dt_s = 0.05", "dt_s = nan")],
-            Loc::Nowhere,
-            &["[settings]", "NaN"],
+            Loc::Line("[settings]"),
+            &["[settings]", "`dt_s`", "NaN"],
         ),
         case(
             "negative dt_s",
             vec![("dt_s = 0.05", "dt_s = -0.05")],
-            Loc::Nowhere,
-            &["dt_s = -0.05", "positive"],
+            Loc::Line("[settings]"),
+            &["`dt_s` = -0.05", "> 0"],
         ),
         case(
             "[solver] with an unknown key (typo newmark_max_iteration)",
@@ -562,14 +562,33 @@ fn case_sensitive_names_and_reference_on_all_joints() {
         "mass_kg = 0.14\n\n[[joint]]\nname = \"r1\"\nposition_m = [1.0, 0.0, 0.3]\nmass_kg = 0.1\n",
     )]);
     assert!(parse(&text, "ok.toml").is_ok());
-    // reference_m on every joint is accepted; one of them NaN is not.
-    let all_ref = VALID.replace(
-        "mass_kg = 0.1",
-        "reference_m = [0.0, 0.0, 0.0]\nmass_kg = 0.1",
-    );
-    assert!(parse(&all_ref, "ok.toml").is_ok());
+    // reference_m on every joint is accepted (the deployed geometry: the
+    // sleeve L0-L1 at its lock length 0.45 m, the 0.5 m rods crossing at
+    // their middles); one of them NaN is not.
+    let w = (0.25f64 - 0.45 * 0.45).sqrt();
+    let all_ref = mutate(&[
+        (
+            "mass_kg = 0.11",
+            "reference_m = [0.0, 0.0, 0.0]\nmass_kg = 0.11",
+        ),
+        (
+            "mass_kg = 0.12",
+            &format!("reference_m = [{w:?}, 0.0, 0.0]\nmass_kg = 0.12"),
+        ),
+        (
+            "mass_kg = 0.13",
+            "reference_m = [0.0, 0.0, 0.45]\nmass_kg = 0.13",
+        ),
+        (
+            "mass_kg = 0.14",
+            &format!("reference_m = [{w:?}, 0.0, 0.45]\nmass_kg = 0.14"),
+        ),
+    ]);
+    if let Err(e) = parse(&all_ref, "ok.toml") {
+        panic!("{e}");
+    }
     let one_nan = all_ref.replacen(
-        "reference_m = [0.0, 0.0, 0.0]\nmass_kg = 0.13",
+        "reference_m = [0.0, 0.0, 0.45]\nmass_kg = 0.13",
         "reference_m = [nan, 0.0, 0.0]\nmass_kg = 0.13",
         1,
     );

@@ -3,6 +3,7 @@
 //! run fails part-way (what was computed until then is still written).
 
 use crate::model::{self, generate};
+use crate::solver::checks::RunChecks;
 use crate::solver::{mobility, Options, Simulator, SolverKind};
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use serde::Serialize;
@@ -18,8 +19,15 @@ macro_rules! say {
     }};
 }
 
+mod interrupt;
+mod output;
 mod plot;
 mod simulate;
+
+/// Writes one `warning:` line on stderr; a failed write is ignored (never a panic).
+pub(crate) fn warn(message: &str) {
+    let _ = writeln!(std::io::stderr(), "warning: {message}");
+}
 
 #[derive(Parser, Debug)]
 #[command(
@@ -123,7 +131,7 @@ struct BenchArgs {
     model: PathBuf,
     #[arg(long, value_enum, default_value_t = SolverArg::Sparse)]
     solver: SolverArg,
-    /// Steps to time.
+    /// Steps to time (1 to 1,000,000).
     #[arg(long, default_value_t = 200)]
     steps: usize,
     #[arg(long)]
@@ -192,7 +200,8 @@ pub fn main() -> i32 {
     match result {
         Ok(()) => 0,
         Err(f) => {
-            eprintln!("error: {}", f.message);
+            // (a full or closed stderr is ignored: the exit status still tells)
+            let _ = writeln!(std::io::stderr(), "error: {}", f.message);
             f.code
         }
     }
@@ -203,21 +212,31 @@ pub fn load(path: &Path) -> Result<model::LoadedModel, Failure> {
 }
 
 pub fn make_simulator(path: &Path, solver: SolverKind) -> Result<Simulator, Failure> {
+    make_simulator_from(path, solver).map(|(sim, _)| sim)
+}
+
+/// The simulator of a model file, and the file's run checks.
+pub fn make_simulator_from(
+    path: &Path,
+    solver: SolverKind,
+) -> Result<(Simulator, RunChecks), Failure> {
     let m = load(path)?;
-    Simulator::new(
+    let sim = Simulator::new(
         m.model,
         Options {
             solver,
             ..Options::default()
         },
     )
-    .map_err(|e| Failure::input(format!("{}: {e}", path.display())))
+    .map_err(|e| Failure::input(format!("{}: {e}", path.display())))?;
+    Ok((sim, m.checks))
 }
 
+/// Writes `value` as pretty JSON, atomically (a failed write exits 1: the
+/// input was good, the run's result is lost).
 pub fn write_json<T: Serialize>(path: &Path, value: &T) -> Result<(), Failure> {
-    let text = serde_json::to_string_pretty(value).expect("summary serializes");
-    std::fs::write(path, text + "\n")
-        .map_err(|e| Failure::input(format!("cannot write {}: {e}", path.display())))
+    let text = serde_json::to_string_pretty(value).expect("summary serializes") + "\n";
+    output::write_atomic(path, text.as_bytes()).map_err(Failure::run)
 }
 
 #[derive(Serialize)]
@@ -234,12 +253,47 @@ struct AnalyzeJson {
     self_stress_locked: usize,
     /// Where the locked analysis was made: "reference" or "initial" geometry.
     locked_geometry: &'static str,
+    /// Why the model cannot deploy (null when nothing was found): see
+    /// `solver::checks::cannot_deploy`.
+    cannot_deploy: Option<String>,
     initial: mobility::Mobility,
     locked: mobility::Mobility,
 }
 
+/// Refuses a geometry whose Jacobian is not finite (the SVD of the rank
+/// decision would not end on it).
+fn finite_jacobian(
+    model: &crate::solver::Model,
+    x: &[f64],
+    locked: &[bool],
+    what: &str,
+) -> Result<(), Failure> {
+    let mut jac = crate::solver::jacobian::Jacobian::pattern(model, locked);
+    jac.fill(model, x);
+    for b in &jac.blocks {
+        let w = crate::solver::jacobian::Jacobian::width(b);
+        let vals = &jac.values[b.offset..b.offset + b.rows * w];
+        if vals.iter().any(|v| !v.is_finite()) {
+            let el = &model.elements[b.element];
+            let names: Vec<&str> = el
+                .joints()
+                .iter()
+                .map(|&j| model.joints[j].name.as_str())
+                .collect();
+            return Err(Failure::input(format!(
+                "the {what} geometry makes {} element `{}` degenerate (joints {} coincide or are not finite): its constraint directions are undefined; fix the positions of these joints",
+                el.kind(), el.name(), names.join(", ")
+            )));
+        }
+    }
+    Ok(())
+}
+
 fn analyze(a: AnalyzeArgs) -> Result<(), Failure> {
     let loaded = load(&a.model)?;
+    if let Some(j) = &a.json {
+        output::check_outputs(&[a.model.as_path()], &[("--json", j.as_path())])?;
+    }
     let m = &loaded.model;
     let free: Vec<bool> = m
         .elements
@@ -251,12 +305,20 @@ fn analyze(a: AnalyzeArgs) -> Result<(), Failure> {
         .iter()
         .map(|e| e.lock_gap(&m.x0).is_some())
         .collect();
-    let before = mobility::analyze(m, &m.x0, &free);
     let (geometry, xl) = match &m.reference {
         Some(r) => ("reference", r.as_slice()),
         None => ("initial", m.x0.as_slice()),
     };
+    let err_in = |f: Failure| Failure::input(format!("{}: {}", a.model.display(), f.message));
+    finite_jacobian(m, &m.x0, &free, "initial").map_err(err_in)?;
+    finite_jacobian(m, xl, &all, geometry).map_err(err_in)?;
+    let before = mobility::analyze(m, &m.x0, &free);
     let after = mobility::analyze(m, xl, &all);
+    // The initial state as a run starts from it (accelerations under the drive).
+    let sim = Simulator::new(loaded.model, Options::default())
+        .map_err(|e| Failure::input(format!("{}: {e}", a.model.display())))?;
+    let m = sim.model();
+    let cannot_deploy = crate::solver::checks::cannot_deploy(m, sim.state());
     say!(
         "model {} ({} joints, {} coordinates)",
         m.name,
@@ -296,6 +358,10 @@ fn analyze(a: AnalyzeArgs) -> Result<(), Failure> {
             p.rows
         );
     }
+    match &cannot_deploy {
+        Some(why) => say!("diagnosis: cannot deploy: {why}"),
+        None => say!("diagnosis: the drive moves the truss at its initial geometry"),
+    }
     if !before.redundant_rows.is_empty() {
         let shown: Vec<_> = before.redundant_rows.iter().take(12).cloned().collect();
         say!(
@@ -323,6 +389,7 @@ fn analyze(a: AnalyzeArgs) -> Result<(), Failure> {
                 mechanisms_locked: after.mechanisms,
                 self_stress_locked: after.self_stress,
                 locked_geometry: geometry,
+                cannot_deploy: cannot_deploy.clone(),
                 initial: before.clone(),
                 locked: after.clone(),
             },
@@ -332,6 +399,7 @@ fn analyze(a: AnalyzeArgs) -> Result<(), Failure> {
 }
 
 fn generate_cmd(a: GenerateArgs) -> Result<(), Failure> {
+    output::check_outputs(&[], &[("-o", a.output.as_path())])?;
     let doc = match a.kind {
         Kind::Mast => {
             let d = generate::MastParams::default();
@@ -396,11 +464,12 @@ fn generate_cmd(a: GenerateArgs) -> Result<(), Failure> {
         }
     };
     let text = doc.to_toml();
-    // Written models must load: check before writing.
-    model::parse(&text, &a.output.display().to_string())
-        .map_err(|e| Failure::run(format!("generated model is invalid: {e}")))?;
-    std::fs::write(&a.output, text)
-        .map_err(|e| Failure::input(format!("cannot write {}: {e}", a.output.display())))?;
+    // Written models must load: check before writing (nothing is written when
+    // they do not; the options made them, so it is an input error).
+    let kind = format!("{:?}", a.kind).to_lowercase();
+    model::parse(&text, &format!("the model `generate {kind}` would write"))
+        .map_err(|e| Failure::input(format!("{e}; nothing was written: change the options")))?;
+    output::write_atomic(&a.output, text.as_bytes()).map_err(Failure::run)?;
     say!(
         "wrote {} ({} joints, {} elements)",
         a.output.display(),
@@ -421,9 +490,18 @@ struct BenchJson {
     factorizations_per_step: f64,
 }
 
+/// Most steps `bench` times (8 bytes of timings each; ~5 min of the ring).
+const MAX_BENCH_STEPS: usize = 1_000_000;
+
 fn bench(a: BenchArgs) -> Result<(), Failure> {
-    if a.steps == 0 {
-        return Err(Failure::input("--steps 0: time at least one step"));
+    if !(1..=MAX_BENCH_STEPS).contains(&a.steps) {
+        return Err(Failure::input(format!(
+            "--steps {}: time 1 to {MAX_BENCH_STEPS} steps",
+            a.steps
+        )));
+    }
+    if let Some(j) = &a.json {
+        output::check_outputs(&[a.model.as_path()], &[("--json", j.as_path())])?;
     }
     let mut sim = make_simulator(&a.model, a.solver.into())?;
     let dt = sim.model().dt_s;

@@ -41,7 +41,7 @@ fn style(size: u32, h: HPos, v: VPos) -> TextStyle<'static> {
 }
 
 fn write_svg(path: &Path, svg: String) -> Result<(), String> {
-    std::fs::write(path, svg).map_err(|e| format!("cannot write {}: {e}", path.display()))
+    super::output::write_atomic(path, svg.as_bytes())
 }
 
 fn drawing<E: std::fmt::Display>(path: &Path) -> impl Fn(E) -> String + '_ {
@@ -658,7 +658,7 @@ impl Recorder {
     /// Resolves the joint names (unknown names are an error listing the valid
     /// ones; none given: up to 3 joints that move the most from the initial to the
     /// reference geometry, or the last 3 without a reference) and checks that the
-    /// output files can be created, so that bad input fails before the run.
+    /// output files were checked by the caller (`output::check_outputs`).
     pub fn new(
         model: &Model,
         plot: Option<&Path>,
@@ -672,14 +672,8 @@ impl Recorder {
             None => None,
             Some(p) => Some((p.to_path_buf(), resolve_joints(model, joints)?)),
         };
-        for p in plot
-            .as_ref()
-            .map(|p| p.0.as_path())
-            .into_iter()
-            .chain(snapshots)
-        {
-            std::fs::File::create(p).map_err(|e| format!("cannot write {}: {e}", p.display()))?;
-        }
+        // (the output paths are checked by the caller, `output::check_outputs`,
+        // without touching a file that is there)
         let n = plot.as_ref().map_or(0, |p| p.1.len());
         Ok(Recorder {
             plot,

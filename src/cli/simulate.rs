@@ -1,23 +1,37 @@
 //! `truss-deploy simulate`: offline run to full deployment.
+//!
+//! Every run ends with a stop reason (`StopReason`), in the summary on stdout
+//! and in the JSON, and an exit status: 0 when it did what was asked
+//! (deployed, or reached `--until`), 1 when it stopped otherwise (the model's
+//! end time, a stall, a failed step or self-check, the wall-clock limit),
+//! 2 on bad input (before the run), 130 when interrupted by SIGINT/SIGTERM.
+//! Whatever ends the run, the CSV (whole rows), the plots and the summary of
+//! what was computed are written.
 
-use super::{make_simulator, plot, write_json, Failure, SolverArg};
+use super::output::{check_outputs, write_atomic, AtomicFile};
+use super::{interrupt, make_simulator_from, plot, Failure, SolverArg};
+use crate::solver::checks::{self, RunChecks, StallWatch};
 use crate::solver::{Energy, LockEvent, Simulator, SolverStats};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
-use std::io::{BufWriter, Write};
+use std::io::Write;
 use std::path::PathBuf;
 use std::time::Instant;
 
 #[derive(Args, Debug)]
 pub struct SimulateArgs {
     model: PathBuf,
-    /// Time step (s); default: the model's `dt_s`.
+    /// Time step (s); default: the model's `dt_s`. At least 1e-9 of the run, at most all of it.
     #[arg(long, allow_negative_numbers = true)]
     dt: Option<f64>,
-    /// Stop at this simulation time (s) even if not deployed; default: the model's `end_time_s`.
+    /// Stop at this simulation time (s) even if not deployed (exit 0); default: the model's
+    /// `end_time_s` (reaching it undeployed is exit 1).
     #[arg(long, allow_negative_numbers = true)]
     until: Option<f64>,
+    /// Stop the run (exit 1, outputs written) after this much wall-clock time (s).
+    #[arg(long, allow_negative_numbers = true)]
+    max_wall_s: Option<f64>,
     /// Write every joint coordinate against time.
     #[arg(long)]
     csv: Option<PathBuf>,
@@ -35,6 +49,45 @@ pub struct SimulateArgs {
     snapshots: Option<PathBuf>,
     #[arg(long, value_enum, default_value_t = SolverArg::Sparse)]
     solver: SolverArg,
+}
+
+/// Why a run stopped.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum StopReason {
+    /// Every sleeve latched (or the truss became rigid): exit 0.
+    Deployed,
+    /// `--until` reached: exit 0.
+    Until,
+    /// The model's `end_time_s` reached without deploying: exit 1.
+    EndTime,
+    /// At rest, and no drive moves it (`checks::StallWatch`): exit 1.
+    Stalled,
+    /// SIGINT or SIGTERM: exit 130.
+    Interrupted,
+    /// A step failed, a self-check failed, an output could not be written or
+    /// the wall-clock limit was reached: exit 1.
+    Error,
+}
+
+impl StopReason {
+    pub fn exit_code(self) -> i32 {
+        match self {
+            StopReason::Deployed | StopReason::Until => 0,
+            StopReason::Interrupted => 130,
+            _ => 1,
+        }
+    }
+    fn label(self) -> &'static str {
+        match self {
+            StopReason::Deployed => "deployed",
+            StopReason::Until => "until",
+            StopReason::EndTime => "end_time",
+            StopReason::Stalled => "stalled",
+            StopReason::Interrupted => "interrupted",
+            StopReason::Error => "error",
+        }
+    }
 }
 
 #[derive(Serialize)]
@@ -55,7 +108,11 @@ pub struct SimulateJson {
     pub kinetic_energy_j: f64,
     pub energy: Energy,
     pub locks: Vec<LockEvent>,
-    /// Set when the run stopped on an error; everything above is what was computed until then.
+    /// Why the run stopped, and the sentence that says so.
+    pub stop_reason: StopReason,
+    pub stop_message: String,
+    /// Set when the run stopped on an error (the same as `stop_message`);
+    /// everything above is what was computed until then.
     pub error: Option<String>,
     /// What the solver did: steps, sub-steps, iterations, factorizations,
     /// solves, fallbacks by kind, latch searches.
@@ -69,6 +126,31 @@ fn check_positive(name: &str, v: Option<f64>) -> Result<(), Failure> {
         ))),
         _ => Ok(()),
     }
+}
+
+/// The step and the run length must make a bounded, meaningful run: dt at
+/// most the whole run, at least `min_dt_fraction` of it, and no more steps
+/// than `max_steps`.
+fn check_step_count(dt: f64, until: f64, dt_from: &str, checks: &RunChecks) -> Result<(), Failure> {
+    if dt > until {
+        return Err(Failure::input(format!(
+            "{dt_from} {dt:?} s is longer than the run ({until:?} s); give a step shorter than the run"
+        )));
+    }
+    if dt < checks.min_dt_fraction * until {
+        return Err(Failure::input(format!(
+            "{dt_from} {dt:?} s is below {:e} of the run ({until:?} s); give a larger step or a shorter --until",
+            checks.min_dt_fraction
+        )));
+    }
+    let steps = (until / dt).ceil();
+    if steps > checks.max_steps as f64 {
+        return Err(Failure::input(format!(
+            "{dt_from} {dt:?} s over {until:?} s makes {steps:.0} steps, more than the budget of {} ([checks] max_steps); give a larger step or a shorter --until",
+            checks.max_steps
+        )));
+    }
+    Ok(())
 }
 
 fn csv_header(sim: &Simulator) -> String {
@@ -93,9 +175,38 @@ fn csv_row(out: &mut impl Write, sim: &Simulator) -> std::io::Result<()> {
 pub fn run(a: SimulateArgs) -> Result<(), Failure> {
     check_positive("--dt", a.dt)?;
     check_positive("--until", a.until)?;
-    let mut sim = make_simulator(&a.model, a.solver.into())?;
+    check_positive("--max-wall-s", a.max_wall_s)?;
+    let (mut sim, checks) = make_simulator_from(&a.model, a.solver.into())?;
+    let outputs: Vec<(&str, &std::path::Path)> = [
+        ("--csv", &a.csv),
+        ("--json", &a.json),
+        ("--plot", &a.plot),
+        ("--snapshots", &a.snapshots),
+    ]
+    .into_iter()
+    .filter_map(|(o, p)| p.as_deref().map(|p| (o, p)))
+    .collect();
+    check_outputs(&[a.model.as_path()], &outputs)?;
     let dt = a.dt.unwrap_or(sim.model().dt_s);
     let until = a.until.unwrap_or(sim.model().end_time_s);
+    let dt_from = if a.dt.is_some() { "--dt" } else { "dt_s" };
+    check_step_count(dt, until, dt_from, &checks)
+        .map_err(|f| Failure::input(format!("{}: {}", a.model.display(), f.message)))?;
+    // A model that cannot deploy is refused when the run is to deploy it;
+    // with --until (a run for a time) it is a warning.
+    if let Some(why) = checks::cannot_deploy(sim.model(), sim.state()) {
+        if a.until.is_none() {
+            return Err(Failure::input(format!(
+                "{}: the model cannot deploy: {why}; fix the model (`truss-deploy analyze` \
+                 shows its mechanisms), or give --until to run it for a time anyway",
+                a.model.display()
+            )));
+        }
+        super::warn(&format!(
+            "{}: the model cannot deploy: {why}",
+            a.model.display()
+        ));
+    }
     let mut rec = plot::Recorder::new(
         sim.model(),
         a.plot.as_deref(),
@@ -106,12 +217,11 @@ pub fn run(a: SimulateArgs) -> Result<(), Failure> {
     rec.record(sim.state().t_s, &sim.state().x);
     let mut csv = match &a.csv {
         Some(p) => {
-            let f = std::fs::File::create(p)
-                .map_err(|e| Failure::input(format!("cannot write {}: {e}", p.display())))?;
-            let mut w = BufWriter::new(f);
-            writeln!(w, "{}", csv_header(&sim)).map_err(|e| Failure::run(e.to_string()))?;
-            csv_row(&mut w, &sim).map_err(|e| Failure::run(e.to_string()))?;
-            Some(w)
+            let mut f = AtomicFile::create(p).map_err(Failure::input)?;
+            writeln!(f.writer(), "{}", csv_header(&sim))
+                .and_then(|_| csv_row(f.writer(), &sim))
+                .map_err(|e| Failure::run(format!("cannot write {}: {e}", p.display())))?;
+            Some(f)
         }
         None => None,
     };
@@ -124,41 +234,129 @@ pub fn run(a: SimulateArgs) -> Result<(), Failure> {
         .expect("valid template")
         .progress_chars("=> "),
     );
+    interrupt::install();
     let start = Instant::now();
-    let mut error = None;
-    while !sim.state().deployed && sim.state().t_s < until - 1e-9 * dt {
-        let h = dt.min(until - sim.state().t_s);
+    let mut stall = StallWatch::new(sim.model(), &checks);
+    let stop: (StopReason, String) = loop {
+        let (m, s) = (sim.model(), sim.state());
+        if s.deployed {
+            let t = s.deploy_time_s.unwrap_or(0.0);
+            break (
+                StopReason::Deployed,
+                if s.locks.is_empty() {
+                    "deployed: every sleeve was latched at the start".into()
+                } else {
+                    format!("deployed at t = {t:.6} s: every sleeve latched")
+                },
+            );
+        }
+        if s.t_s >= until - 1e-9 * dt {
+            break match a.until {
+                Some(u) => (
+                    StopReason::Until,
+                    format!("reached --until {u} s, not deployed"),
+                ),
+                None => (
+                    StopReason::EndTime,
+                    format!(
+                        "reached the model's end_time_s = {until} s without deploying; {}",
+                        checks::unlatched_summary(m, s)
+                    ),
+                ),
+            };
+        }
+        if interrupt::requested() {
+            break (
+                StopReason::Interrupted,
+                format!("interrupted by a signal at t = {:.6} s", s.t_s),
+            );
+        }
+        if let Some(limit) = a.max_wall_s {
+            if start.elapsed().as_secs_f64() > limit {
+                break (
+                    StopReason::Error,
+                    format!(
+                        "the wall-clock limit --max-wall-s {limit} s was reached at t = {:.6} s",
+                        s.t_s
+                    ),
+                );
+            }
+        }
+        if s.steps >= checks.max_steps {
+            break (
+                StopReason::Error,
+                format!(
+                    "the step budget of {} steps ([checks] max_steps) was used up at t = {:.6} s",
+                    checks.max_steps, s.t_s
+                ),
+            );
+        }
+        let h = dt.min(until - s.t_s);
         if let Err(e) = sim.step(h) {
-            error = Some(format!("at t = {:.6} s: {e}", sim.state().t_s));
-            break;
+            break (
+                StopReason::Error,
+                format!("the step from t = {:.6} s failed: {e}", sim.state().t_s),
+            );
         }
-        if let Some(w) = csv.as_mut() {
-            csv_row(w, &sim).map_err(|e| Failure::run(e.to_string()))?;
+        let (m, s) = (sim.model(), sim.state());
+        if let Some(f) = csv.as_mut() {
+            if let Err(e) = csv_row(f.writer(), &sim) {
+                break (
+                    StopReason::Error,
+                    format!(
+                        "cannot write {}: {e}",
+                        a.csv.as_ref().expect("csv path").display()
+                    ),
+                );
+            }
         }
-        rec.record(sim.state().t_s, &sim.state().x);
+        rec.record(s.t_s, &s.x);
+        if let Some(why) = checks::energy_unbalanced(m, s, &checks) {
+            break (StopReason::Error, format!("at t = {:.6} s {why}", s.t_s));
+        }
+        if let Some(why) = stall.update(m, s) {
+            break (
+                StopReason::Stalled,
+                format!("stalled at t = {:.6} s: {why}", s.t_s),
+            );
+        }
         bar.inc(1);
-        if sim.state().steps % 20 == 0 {
+        if s.steps % 20 == 0 {
             bar.set_message(format!(
                 "{:.2} s, {}/{} locks",
-                sim.state().t_s,
-                sim.state().locks_engaged(sim.model()),
-                sim.model().locks.len()
+                s.t_s,
+                s.locks_engaged(m),
+                m.locks.len()
             ));
         }
-    }
+    };
     bar.finish_and_clear();
     let wall = start.elapsed().as_secs_f64();
-    if let Some(mut w) = csv {
-        w.flush().map_err(|e| Failure::run(e.to_string()))?;
+    let (mut reason, mut message) = stop;
+    // Outputs: what was computed, whatever stopped the run. A failed write
+    // turns a run that did what was asked into an error (exit 1).
+    let mut write_errors: Vec<String> = Vec::new();
+    if let Some(f) = csv {
+        if let Err(e) = f.commit() {
+            write_errors.push(e);
+        }
     }
     let (m, s) = (sim.model(), sim.state());
+    let locks: Vec<(String, f64)> = s.locks.iter().map(|l| (l.name.clone(), l.time_s)).collect();
+    if let Err(e) = rec.finish(m, &locks) {
+        write_errors.push(e);
+    }
+    if !write_errors.is_empty() && reason.exit_code() == 0 {
+        reason = StopReason::Error;
+        message = write_errors.join("; ");
+    }
     let ke = s.kinetic_energy_j(m);
     let summary = SimulateJson {
         model: m.name.clone(),
         solver: format!("{:?}", a.solver).to_lowercase(),
         dt_s: dt,
         deployed: s.deployed,
-        deploy_time_s: s.deploy_time_s,
+        deploy_time_s: s.deploy_time_s.or(s.deployed.then_some(0.0)),
         time_s: s.t_s,
         steps: s.steps,
         wall_time_s: wall,
@@ -170,23 +368,28 @@ pub fn run(a: SimulateArgs) -> Result<(), Failure> {
         kinetic_energy_j: ke,
         energy: s.energy.clone(),
         locks: s.locks.clone(),
-        error: error.clone(),
+        stop_reason: reason,
+        stop_message: message.clone(),
         solver_stats: sim.solver_stats().clone(),
+        error: (reason == StopReason::Error).then(|| message.clone()),
     };
     print_summary(&summary);
     if let Some(j) = &a.json {
-        write_json(j, &summary)?;
-    }
-    let locks: Vec<(String, f64)> = s.locks.iter().map(|l| (l.name.clone(), l.time_s)).collect();
-    if let Err(e) = rec.finish(m, &locks) {
-        match &error {
-            Some(_) => eprintln!("error: {e}"),
-            None => return Err(Failure::run(e)),
+        let text = serde_json::to_string_pretty(&summary).expect("summary serializes") + "\n";
+        if let Err(e) = write_atomic(j, text.as_bytes()) {
+            write_errors.push(e.clone());
+            if reason.exit_code() == 0 {
+                reason = StopReason::Error;
+                message = e;
+            }
         }
     }
-    match error {
-        Some(e) => Err(Failure::run(e)),
-        None => Ok(()),
+    for e in write_errors.iter().filter(|e| **e != message) {
+        super::warn(e);
+    }
+    match reason.exit_code() {
+        0 => Ok(()),
+        code => Err(Failure { code, message }),
     }
 }
 
@@ -209,6 +412,11 @@ fn print_summary(s: &SimulateJson) {
         Some(t) if s.deployed => say!("deployed         yes, at t = {t:.6} s"),
         _ => say!("deployed         no (stopped at t = {:.3} s)", s.time_s),
     }
+    say!(
+        "stop             {}: {}",
+        s.stop_reason.label(),
+        s.stop_message
+    );
     say!(
         "steps            {} at dt = {} s, wall time {:.3} s",
         s.steps,

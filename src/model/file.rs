@@ -14,6 +14,11 @@
 //! damping_n_s_per_m = 0.0    # viscous, on each joint's velocity
 //! axial_stiffness_n = 6.0e6  # EA of members that name none (N): shares redundant forces
 //!
+//! [checks]                   # all optional: solver::checks::RunChecks
+//! energy_balance_rel_tol = 1e-2   # a run whose energy balance is off by more stops (exit 1)
+//! stall_rel_motion = 1e-7    # at rest: no joint moves this fraction of the size ...
+//! stall_time_s = 1.0         # ... within this time; so long at rest: `stalled`
+//! max_steps = 2000000        # step budget of one run
 //! [solver]                   # all optional: tolerances and iteration limits,
 //! newmark_max_iterations = 60  # keys and defaults in solver::settings
 //!
@@ -21,7 +26,8 @@
 //! name = "L0"
 //! position_m = [0.0, 0.0, 0.0]
 //! mass_kg = 0.15
-//! reference_m = [0.0, 0.0, 0.0]   # deployed position (optional, all joints or none)
+//! reference_m = [0.0, 0.0, 0.0]   # deployed position (optional, all joints or none;
+//!                                 # must satisfy every element, sleeves latched)
 //!
 //! [[element]]
 //! type = "scissor"           # see `truss-deploy analyze --help` / elements::REGISTRY
@@ -40,6 +46,7 @@
 //! slip_speed_m_s = 1e-4
 //! ```
 
+use crate::solver::checks::RunChecks;
 use crate::solver::elements::{ElementSpec, Param};
 use crate::solver::{Cable, Joint, Model, ModelParts, SolverError, SolverSettings};
 use serde::Deserialize;
@@ -83,13 +90,39 @@ struct Settings {
     dt_s: f64,
     #[serde(default = "default_end")]
     end_time_s: f64,
-    #[serde(default)]
+    #[serde(default, deserialize_with = "xyz")]
     gravity_m_s2: [f64; 3],
     #[serde(default)]
     damping_n_s_per_m: f64,
     /// Model-wide EA of members (N); the solver's default when absent.
     #[serde(default)]
     axial_stiffness_n: Option<f64>,
+}
+
+/// Run checks (`[checks]`, all optional): see `solver::checks::RunChecks`.
+#[derive(Deserialize, Debug, Default)]
+#[serde(deny_unknown_fields)]
+struct ChecksSpec {
+    energy_balance_rel_tol: Option<f64>,
+    stall_rel_motion: Option<f64>,
+    stall_time_s: Option<f64>,
+    max_steps: Option<u64>,
+}
+
+/// Exactly three numbers [x, y, z]: serde's fixed-size arrays would take the
+/// first three of a longer list and drop the rest silently.
+fn xyz<'de, D: serde::Deserializer<'de>>(d: D) -> Result<[f64; 3], D::Error> {
+    let v: Vec<f64> = Vec::deserialize(d)?;
+    <[f64; 3]>::try_from(v.as_slice()).map_err(|_| {
+        serde::de::Error::custom(format!(
+            "expected exactly 3 numbers [x, y, z], found {}",
+            v.len()
+        ))
+    })
+}
+
+fn xyz_opt<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Option<[f64; 3]>, D::Error> {
+    xyz(d).map(Some)
 }
 fn default_dt() -> f64 {
     0.05
@@ -113,9 +146,10 @@ impl Default for Settings {
 #[serde(deny_unknown_fields)]
 struct JointSpec {
     name: Spanned<String>,
+    #[serde(deserialize_with = "xyz")]
     position_m: [f64; 3],
     mass_kg: f64,
-    #[serde(default)]
+    #[serde(default, deserialize_with = "xyz_opt")]
     reference_m: Option<[f64; 3]>,
 }
 
@@ -159,6 +193,7 @@ struct FileSpec {
     #[serde(default)]
     settings: Settings,
     #[serde(default)]
+    checks: ChecksSpec,
     solver: Option<Spanned<SolverSettings>>,
     #[serde(default, rename = "joint")]
     joints: Vec<Spanned<JointSpec>>,
@@ -171,6 +206,8 @@ struct FileSpec {
 /// Loaded model plus the descriptive parts of the file.
 pub struct LoadedModel {
     pub model: Model,
+    /// The run checks, the file's `[checks]` over the defaults.
+    pub checks: RunChecks,
     pub description: String,
     pub notes: Vec<String>,
 }
@@ -203,9 +240,16 @@ pub fn parse(text: &str, file: &str) -> Result<LoadedModel, ModelFileError> {
     };
     let spec: FileSpec = toml::from_str(text).map_err(|e| {
         let msg = e.message().trim().to_string();
+        // Name the key whose value is wrong (serde's messages say only what was
+        // expected): the `key =` of the line the error points at.
+        let key = e
+            .span()
+            .and_then(|s| key_on_line(text, s.start))
+            .filter(|k| !msg.contains(&format!("`{k}`")))
+            .map_or(String::new(), |k| format!("`{k}`: "));
         err(
             e.span(),
-            format!("{msg}; see the format in the README (section Model files)"),
+            format!("{key}{msg}; see the format in the README (section Model files)"),
         )
     })?;
     let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
@@ -218,23 +262,48 @@ pub fn parse(text: &str, file: &str) -> Result<LoadedModel, ModelFileError> {
         })?;
     }
     let s = &spec.settings;
-    if !finite(&[s.dt_s, s.end_time_s, s.damping_n_s_per_m]) || !finite(&s.gravity_m_s2) {
+    let settings_span = settings_line(text);
+    for (key, v, min_exclusive) in [
+        ("dt_s", s.dt_s, Some(0.0)),
+        ("end_time_s", s.end_time_s, Some(0.0)),
+        ("damping_n_s_per_m", s.damping_n_s_per_m, None),
+    ] {
+        let bad = match min_exclusive {
+            Some(m) => !(v.is_finite() && v > m),
+            None => !(v.is_finite() && v >= 0.0),
+        };
+        if bad {
+            return Err(err(
+                settings_span.clone(),
+                format!(
+                    "[settings] `{key}` = {v}: give a finite number {}",
+                    if min_exclusive.is_some() {
+                        "> 0"
+                    } else {
+                        ">= 0"
+                    }
+                ),
+            ));
+        }
+    }
+    if !finite(&s.gravity_m_s2) {
         return Err(err(
-            None,
-            "[settings] holds a NaN or infinite number; give finite values".into(),
+            settings_span,
+            "[settings] `gravity_m_s2` holds a NaN or infinite number; give 3 finite numbers (m/s^2)".into(),
         ));
     }
     if s.axial_stiffness_n
         .is_some_and(|ea| !(ea.is_finite() && ea > 0.0))
     {
         return Err(err(
-            None,
+            settings_span.clone(),
             format!(
                 "[settings] axial_stiffness_n = {} must be a positive, finite EA in N",
                 s.axial_stiffness_n.unwrap_or(f64::NAN)
             ),
         ));
     }
+    let checks = run_checks(&spec.checks).map_err(|m| err(None, m))?;
 
     // Joints: unique names, finite numbers, positive masses.
     let mut index: BTreeMap<&str, usize> = BTreeMap::new();
@@ -382,18 +451,39 @@ pub fn parse(text: &str, file: &str) -> Result<LoadedModel, ModelFileError> {
             ));
         }
         let nums = [
-            c.tension_n,
-            c.max_tension_n.unwrap_or(0.0),
-            c.friction_mu,
-            c.line_density_kg_per_m,
-            c.pulley_radius_m,
-            c.slip_speed_m_s,
+            ("tension_n", c.tension_n),
+            ("max_tension_n", c.max_tension_n.unwrap_or(c.tension_n)),
+            ("friction_mu", c.friction_mu),
+            ("line_density_kg_per_m", c.line_density_kg_per_m),
+            ("pulley_radius_m", c.pulley_radius_m),
         ];
-        if !finite(&nums) {
+        for (key, v) in nums {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(err(
+                    Some(cs.span()),
+                    format!("{whose}: `{key}` = {v}; give a finite number >= 0"),
+                ));
+            }
+        }
+        if !(c.slip_speed_m_s.is_finite() && c.slip_speed_m_s > 0.0) {
             return Err(err(
                 Some(cs.span()),
-                format!("{whose} has a NaN or infinite number; give finite values"),
+                format!(
+                    "{whose}: `slip_speed_m_s` = {}; give a finite speed > 0 (m/s)",
+                    c.slip_speed_m_s
+                ),
             ));
+        }
+        if let Some(max) = c.max_tension_n {
+            if c.tension_n > max {
+                return Err(err(
+                    Some(cs.span()),
+                    format!(
+                        "{whose}: `tension_n` = {} N exceeds `max_tension_n` = {max} N; raise max_tension_n or lower the tension",
+                        c.tension_n
+                    ),
+                ));
+            }
         }
         let path = c
             .path
@@ -455,11 +545,111 @@ pub fn parse(text: &str, file: &str) -> Result<LoadedModel, ModelFileError> {
         return Err(err(span, e.to_string()));
     }
     debug_assert_eq!(n_elements, model.elements.len());
+    check_reference(&model, &spec.joints, &element_spans, &err)?;
     Ok(LoadedModel {
         model,
+        checks,
         description: spec.model.description,
         notes: spec.model.notes,
     })
+}
+
+/// The key of the `key = value` line holding byte `offset`, if any.
+fn key_on_line(text: &str, offset: usize) -> Option<String> {
+    let offset = offset.min(text.len());
+    let start = text[..offset].rfind('\n').map_or(0, |i| i + 1);
+    let line = text[start..].lines().next()?;
+    let (key, _) = line.split_once('=')?;
+    let key = key.trim().trim_matches('"');
+    (!key.is_empty()
+        && key
+            .chars()
+            .all(|c| c.is_alphanumeric() || "_-.".contains(c)))
+    .then(|| key.to_string())
+}
+
+/// The span of the `[settings]` header, for errors in that table.
+fn settings_line(text: &str) -> Option<std::ops::Range<usize>> {
+    text.find("[settings]").map(|i| i..i + 10)
+}
+
+/// `[checks]` over the defaults, each value checked and named.
+fn run_checks(c: &ChecksSpec) -> Result<RunChecks, String> {
+    let mut r = RunChecks::default();
+    let positive = |key: &str, v: Option<f64>| match v {
+        Some(x) if !(x.is_finite() && x > 0.0) => {
+            Err(format!("[checks] `{key}` = {x}: give a finite number > 0"))
+        }
+        _ => Ok(v),
+    };
+    if let Some(v) = positive("energy_balance_rel_tol", c.energy_balance_rel_tol)? {
+        r.energy_balance_rel_tol = v;
+    }
+    if let Some(v) = positive("stall_rel_motion", c.stall_rel_motion)? {
+        r.stall_rel_motion = v;
+    }
+    if let Some(v) = positive("stall_time_s", c.stall_time_s)? {
+        r.stall_time_s = v;
+    }
+    if let Some(v) = c.max_steps {
+        if v == 0 {
+            return Err("[checks] `max_steps` = 0: give at least 1".into());
+        }
+        r.max_steps = v;
+    }
+    Ok(r)
+}
+
+/// Largest residual (m) of any element at the reference (deployed) geometry,
+/// sleeves taken latched there.
+pub const REFERENCE_TOL_M: f64 = 1e-6;
+
+/// The reference geometry is the deployed truss: it must span a size and
+/// satisfy every element with every sleeve latched (a sleeve's length there
+/// is its lock length). Checked here so that `final_error_rel` is measured
+/// against a geometry the truss can reach, and `analyze` (which ranks the
+/// Jacobian there) never works on a degenerate one.
+fn check_reference(
+    model: &Model,
+    joints: &[Spanned<JointSpec>],
+    element_spans: &[std::ops::Range<usize>],
+    err: &dyn Fn(Option<std::ops::Range<usize>>, String) -> ModelFileError,
+) -> Result<(), ModelFileError> {
+    let Some(r) = &model.reference else {
+        return Ok(());
+    };
+    let size = model.reference_size_m().unwrap_or(0.0);
+    if !(size.is_finite() && size > 0.0) {
+        return Err(err(
+            joints.first().map(|j| j.span()),
+            format!("every joint's `reference_m` is the same point (the reference spans {size} m); give the deployed position of each joint"),
+        ));
+    }
+    let mut buf = Vec::new();
+    for (e, el) in model.elements.iter().enumerate() {
+        let rows = el.rows(true);
+        buf.resize(rows, 0.0);
+        el.residual(r, &mut buf);
+        if let Some(row) = buf.iter().position(|v| !(v.abs() <= REFERENCE_TOL_M)) {
+            let names: Vec<&str> = el
+                .joints()
+                .iter()
+                .map(|&j| model.joints[j].name.as_str())
+                .collect();
+            return Err(err(
+                element_spans.get(e).cloned(),
+                format!(
+                    "the reference geometry (`reference_m`) violates {} element `{}` on joints {}: row {row} has residual {:.3e} m there (limit {REFERENCE_TOL_M:e} m, sleeves taken latched); the reference is the deployed truss and must satisfy every element: fix `reference_m` of these joints{}",
+                    el.kind(),
+                    el.name(),
+                    names.join(", "),
+                    buf[row],
+                    if el.lock_gap(r).is_some() { " or the sleeve's `lock_length_m`" } else { "" }
+                ),
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// A model as written by the generators, serialized as a model file.

@@ -5,6 +5,7 @@
 //! - [`Simulator::step`]: the one stepping function the CLI, the node and the benches use.
 
 pub mod cable;
+pub mod checks;
 pub mod elements;
 pub mod jacobian;
 pub mod least_work;

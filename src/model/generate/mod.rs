@@ -75,7 +75,7 @@ pub(crate) fn check_drive(
 ) -> Result<(), String> {
     if !(tension_n >= 0.0 && tension_n <= max_tension_n && mu >= 0.0 && damping >= 0.0) {
         return Err(format!(
-            "drive tension {tension_n} N must be within 0..{max_tension_n} N, friction {mu} and damping {damping} N s/m must be >= 0"
+            "drive tension {tension_n:?} N must be within 0..{max_tension_n:?} N, friction {mu:?} and damping {damping:?} N s/m must be >= 0"
         ));
     }
     Ok(())
