@@ -35,6 +35,19 @@ pub struct SimulateArgs {
     snapshots: Option<PathBuf>,
     #[arg(long, value_enum, default_value_t = SolverArg::Sparse)]
     solver: SolverArg,
+    /// Record the run as a ROS 2 MCAP file: the node's topics, log time = simulation time.
+    #[cfg(feature = "ros")]
+    #[arg(long, value_name = "FILE.mcap")]
+    mcap: Option<PathBuf>,
+    /// --mcap: publications per simulated second (default: every step).
+    #[cfg(feature = "ros")]
+    #[arg(
+        long,
+        value_name = "HZ",
+        allow_negative_numbers = true,
+        requires = "mcap"
+    )]
+    mcap_rate: Option<f64>,
 }
 
 #[derive(Serialize)]
@@ -113,6 +126,15 @@ pub fn run(a: SimulateArgs) -> Result<(), Failure> {
         None => None,
     };
     let dof_initial = sim.state().mechanisms;
+    // --mcap (issue 15): the node's topics recorded offline, one code path with the node.
+    #[cfg(feature = "ros")]
+    let mut mcap = match &a.mcap {
+        Some(p) => Some(
+            crate::node::record::OfflineRecording::start(p, &mut sim, a.mcap_rate)
+                .map_err(Failure::input)?,
+        ),
+        None => None,
+    };
     let bar = ProgressBar::new((until / dt).ceil() as u64);
     bar.set_style(
         ProgressStyle::with_template(
@@ -133,6 +155,10 @@ pub fn run(a: SimulateArgs) -> Result<(), Failure> {
             csv_row(w, &sim).map_err(|e| Failure::run(e.to_string()))?;
         }
         rec.record(sim.state().t_s, &sim.state().x);
+        #[cfg(feature = "ros")]
+        if let Some(m) = mcap.as_mut() {
+            m.after_step(&mut sim).map_err(Failure::run)?;
+        }
         bar.inc(1);
         if sim.state().steps % 20 == 0 {
             bar.set_message(format!(
@@ -147,6 +173,16 @@ pub fn run(a: SimulateArgs) -> Result<(), Failure> {
     let wall = start.elapsed().as_secs_f64();
     if let Some(mut w) = csv {
         w.flush().map_err(|e| Failure::run(e.to_string()))?;
+    }
+    #[cfg(feature = "ros")]
+    if let Some(m) = mcap {
+        let st = m.finish(&mut sim).map_err(Failure::run)?;
+        say!(
+            "mcap             {} messages, {} bytes: {}",
+            st.messages,
+            st.bytes,
+            st.path.display()
+        );
     }
     let (m, s) = (sim.model(), sim.state());
     let ke = s.kinetic_energy_j(m);
