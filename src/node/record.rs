@@ -533,8 +533,8 @@ mod tests {
             &2u32.to_le_bytes(),
             b"q\0",
             &[0, 0],             // pad to 4
-            &1u32.to_le_bytes(), // one position (at offset 28)
-            &[0, 0, 0, 0],       // pad to 8
+            &1u32.to_le_bytes(), // one position
+            // the double starts at body offset 32: 8-aligned, no padding
             &1.5f64.to_le_bytes(),
             &0u32.to_le_bytes(),
             &0u32.to_le_bytes(),
