@@ -359,3 +359,52 @@ fn killed_node_leaves_a_file_readable_to_its_last_chunk() {
     }
     let _ = std::fs::remove_file(&file);
 }
+
+/// docs/foxglove_layout.json plots fields that exist on recorded topics, and
+/// its 3D panel shows /truss/markers in the frame the recordings use.
+#[test]
+fn foxglove_layout_refers_to_recorded_topics_and_fields() {
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/docs/foxglove_layout.json"
+    ))
+    .unwrap();
+    let v: Value = serde_json::from_str(&text).unwrap();
+    let cfg = v["configById"].as_object().unwrap();
+    let three_d = &cfg["3D!truss"];
+    assert_eq!(
+        three_d["followTf"],
+        truss_deploy::node::record::FRAME,
+        "fixed frame"
+    );
+    assert_eq!(three_d["topics"]["/truss/markers"]["visible"], true);
+    // fields of the recorded types (custom ones from msg/, the rest from JointState)
+    let msg = |f: &str| {
+        std::fs::read_to_string(format!("{}/msg/{f}", env!("CARGO_MANIFEST_DIR"))).unwrap()
+    };
+    let fields = |topic: &str| -> String {
+        match topic {
+            "/truss/state" => msg("TrussState.msg"),
+            "/truss/lock_status" => msg("LockStatus.msg"),
+            "/joint_states" => "float64[] position\nfloat64[] velocity\nfloat64[] effort\n".into(),
+            t => panic!("layout plots {t}, which is not a recorded topic with a plot field"),
+        }
+    };
+    let mut n = 0;
+    for (id, panel) in cfg.iter().filter(|(k, _)| k.starts_with("Plot!")) {
+        for p in panel["paths"].as_array().unwrap() {
+            let path = p["value"].as_str().unwrap();
+            let (topic, field) = path.split_once('.').expect("topic.field");
+            let field = field.split('[').next().unwrap();
+            let defs = fields(topic);
+            assert!(
+                defs.lines()
+                    .any(|l| l.split_whitespace().nth(1) == Some(field)),
+                "{id}: {path}: no field `{field}`"
+            );
+            assert!(TOPICS.iter().any(|(t, _)| *t == topic));
+            n += 1;
+        }
+    }
+    assert!(n >= 4, "{n} plotted paths");
+}
