@@ -56,6 +56,17 @@ fn check(py: &str, file: &Path, partial: bool) -> Value {
     serde_json::from_str(line).unwrap()
 }
 
+/// `simulate` on the bundled mast with `args`; it must succeed.
+fn simulate_mast(args: &[&std::ffi::OsStr]) {
+    let out = Command::new(BIN)
+        .args(["simulate", MAST])
+        .args(args)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "simulate {args:?}: {err}");
+}
+
 const TOPICS: [(&str, &str); 5] = [
     ("/joint_states", "sensor_msgs/msg/JointState"),
     ("/truss/state", "truss_deploy/msg/TrussState"),
@@ -123,18 +134,12 @@ fn check_whole(v: &Value) {
 fn simulate_mast_recording_decodes_whole_with_both_readers() {
     let Some(py) = python() else { return };
     let (file, json) = (tmp("mast.mcap"), tmp("mast.json"));
-    let out = Command::new(BIN)
-        .args(["simulate", MAST, "--mcap"])
-        .arg(&file)
-        .arg("--json")
-        .arg(&json)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    simulate_mast(&[
+        "--mcap".as_ref(),
+        file.as_os_str(),
+        "--json".as_ref(),
+        json.as_os_str(),
+    ]);
     let s: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     assert_eq!(s["deployed"], true);
     let v = check(&py, &file, false);
@@ -181,16 +186,12 @@ fn simulate_mast_recording_decodes_whole_with_both_readers() {
 
     // --mcap-rate 4: t = 0, every 0.25 s of simulated time, and the end
     let rated = tmp("mast_rate.mcap");
-    let out = Command::new(BIN)
-        .args(["simulate", MAST, "--mcap-rate", "4", "--mcap"])
-        .arg(&rated)
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    simulate_mast(&[
+        "--mcap-rate".as_ref(),
+        "4".as_ref(),
+        "--mcap".as_ref(),
+        rated.as_os_str(),
+    ]);
     let w = check(&py, &rated, false);
     check_whole(&w);
     let end_s = s["time_s"].as_f64().unwrap();
