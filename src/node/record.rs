@@ -408,7 +408,10 @@ pub struct OfflineRecording {
     period_s: Option<f64>,
     next_s: f64,
     last_t_s: f64,
-    last_lock: Option<Vec<u8>>,
+    /// What /truss/lock_status was last recorded for: (latch events, deployed,
+    /// motor tensions). Offline, nothing else in it changes (no commands, no
+    /// pause), so comparing these is comparing the message without building it.
+    last_lock: Option<(usize, bool, Vec<f64>)>,
 }
 
 /// The frame of headers and markers (the node's default `--frame-id`).
@@ -468,14 +471,17 @@ impl OfflineRecording {
     }
 
     fn lock_status(&mut self, sim: &Simulator) -> Result<(), String> {
-        let t = sim.state().t_s;
-        let msg = self
-            .view
-            .lock_status(sim, &self.book, false, sim_stamp(t), &self.frame);
-        let key = super::publish::lock_key(&msg);
-        if self.last_lock.as_ref() != Some(&key) {
+        let s = sim.state();
+        let same = self.last_lock.as_ref().is_some_and(|(n, d, c)| {
+            *n == s.locks.len() && *d == s.deployed && *c == s.cable_tension_cmd_n
+        });
+        if !same {
+            let t = s.t_s;
+            let msg = self
+                .view
+                .lock_status(sim, &self.book, false, sim_stamp(t), &self.frame);
             self.rec.write(Topic::LockStatus, &msg, stamp_ns(t))?;
-            self.last_lock = Some(key);
+            self.last_lock = Some((s.locks.len(), s.deployed, s.cable_tension_cmd_n.clone()));
         }
         Ok(())
     }
