@@ -62,6 +62,7 @@ use truss_deploy::model::parse;
 use truss_deploy::solver::jacobian::Jacobian;
 use truss_deploy::solver::linsolve::sparse::SparseSchur;
 use truss_deploy::solver::linsolve::ConstraintSolver;
+use truss_deploy::solver::linsolve::SolveMode;
 use truss_deploy::solver::{Model, Options, Simulator, SolverKind};
 
 /// Steps (dt = 0.05 s) from the start to the state the parts are timed at.
@@ -261,10 +262,11 @@ fn assembly(c: &mut Criterion, fx: &[Fixture]) {
 /// makes every sparse factor() a numeric factorization (no kept one reused).
 fn rotation_refactors(f: &Fixture, jacs: &[Jacobian; 3]) -> bool {
     let mut s = SparseSchur::default();
-    s.factor(&jacs[0], &f.inv_mass[0]).expect("sparse factor");
+    s.factor(&jacs[0], &f.inv_mass[0], SolveMode::Basic)
+        .expect("sparse factor");
     let (n0, r0) = (s.numeric_factorizations, s.reused_factorizations);
     for k in 1..=9 {
-        s.factor(&jacs[k % 3], &f.inv_mass[k % 3])
+        s.factor(&jacs[k % 3], &f.inv_mass[k % 3], SolveMode::Basic)
             .expect("sparse factor");
     }
     s.numeric_factorizations - n0 == 9 && s.reused_factorizations == r0
@@ -286,12 +288,13 @@ fn factor(c: &mut Criterion, fx: &[Fixture]) {
         }
         for &kind in f.kinds {
             let mut s = kind.make();
-            s.factor(&jacs[0], &f.inv_mass[0]).expect("factor");
+            s.factor(&jacs[0], &f.inv_mass[0], SolveMode::Basic)
+                .expect("factor");
             let mut k = 0;
             g.bench_function(f.id("refactor", kind), |b| {
                 b.iter(|| {
                     k = (k + 1) % 3;
-                    s.factor(black_box(&jacs[k]), &f.inv_mass[k])
+                    s.factor(black_box(&jacs[k]), &f.inv_mass[k], SolveMode::Basic)
                         .expect("factor")
                 })
             });
@@ -301,7 +304,8 @@ fn factor(c: &mut Criterion, fx: &[Fixture]) {
                 b.iter_batched(
                     || SolverKind::Sparse.make(),
                     |mut s| {
-                        s.factor(black_box(&f.jac), &f.inv_mass[0]).expect("factor");
+                        s.factor(black_box(&f.jac), &f.inv_mass[0], SolveMode::Basic)
+                            .expect("factor");
                         s
                     },
                     BatchSize::SmallInput,
@@ -321,7 +325,7 @@ fn solve(c: &mut Criterion, fx: &[Fixture]) {
         let (mut a, mut lambda) = (vec![0.0; n], vec![0.0; m]);
         for &kind in f.kinds {
             let mut s = kind.make();
-            s.factor(&f.jac, w).expect("factor");
+            s.factor(&f.jac, w, SolveMode::Basic).expect("factor");
             g.bench_function(f.id("fresh", kind), |b| {
                 b.iter(|| s.accelerations(&f.jac, w, black_box(&f.q), &f.c, &mut a, &mut lambda))
             });
@@ -332,9 +336,9 @@ fn solve(c: &mut Criterion, fx: &[Fixture]) {
             let mut s = SparseSchur::default();
             let mut jac_prev = f.jac.clone();
             jac_prev.fill(&f.model, &f.x_prev);
-            s.factor(&jac_prev, w).expect("factor");
+            s.factor(&jac_prev, w, SolveMode::Basic).expect("factor");
             let reused = s.reused_factorizations;
-            s.factor(&f.jac, w).expect("factor");
+            s.factor(&f.jac, w, SolveMode::Basic).expect("factor");
             if s.reused_factorizations != reused + 1 {
                 eprintln!(
                     "SKIPPED solve/kept-sparse/{}: the backend did not keep the previous \
@@ -381,8 +385,9 @@ fn projection(c: &mut Criterion, fx: &[Fixture]) {
             let (mut dx, mut mu) = (vec![0.0; n], vec![0.0; m]);
             if f.kinds.contains(&SolverKind::Sparse) {
                 let mut s = SparseSchur::default();
-                s.factor(&jac, w).expect("factor");
-                s.correction(&jac, w, &r, &mut dx, &mut mu);
+                s.factor(&jac, w, SolveMode::Basic).expect("factor");
+                s.correction(&jac, w, &r, &mut dx, &mut mu)
+                    .expect("correction");
                 eprintln!(
                     "{} {what}: sparse solve: {} CG iterations, right-hand side {}",
                     f.label,
@@ -396,9 +401,10 @@ fn projection(c: &mut Criterion, fx: &[Fixture]) {
             }
             for &kind in f.kinds {
                 let mut s = kind.make();
-                s.factor(&jac, w).expect("factor");
+                s.factor(&jac, w, SolveMode::Basic).expect("factor");
                 // Sanity: one correction removes most of the violation.
-                s.correction(&jac, w, &r, &mut dx, &mut mu);
+                s.correction(&jac, w, &r, &mut dx, &mut mu)
+                    .expect("correction");
                 let x1: Vec<f64> = xp.iter().zip(&dx).map(|(x, d)| x - d).collect();
                 let mut r1 = vec![0.0; m];
                 jac.residual(&f.model, &x1, &mut r1);

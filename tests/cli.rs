@@ -193,6 +193,26 @@ fn simulate_mast_deploys() {
         }
         assert!(num(l, "time_s") <= deploy + 1e-12, "{l:#}");
     }
+    // The solver's counters: one per step, one latch per lock event, at least
+    // one Newmark iteration per Newmark step and one sub-step per step.
+    let st = &s["solver_stats"];
+    let count = |k: &str| {
+        st[k]
+            .as_u64()
+            .unwrap_or_else(|| panic!("solver_stats.{k}: {st:#}"))
+    };
+    assert_eq!(count("steps"), steps, "{st:#}");
+    assert_eq!(count("latches"), locks.len() as u64, "{st:#}");
+    assert!(count("substeps") >= steps, "{st:#}");
+    assert!(
+        count("newmark_iterations") >= count("newmark_steps"),
+        "{st:#}"
+    );
+    assert!(
+        count("latch_searches") >= 1 && count("factorizations") >= 1,
+        "{st:#}"
+    );
+    assert!(st["fallbacks"]["substep_halvings"].is_u64(), "{st:#}");
 
     let text = std::fs::read_to_string(&csv).expect("csv written");
     let mut lines = text.lines();

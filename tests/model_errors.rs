@@ -418,6 +418,33 @@ fn cases() -> Vec<Case> {
             Loc::Nowhere,
             &["dt_s = -0.05", "positive"],
         ),
+        case(
+            "[solver] with an unknown key (typo newmark_max_iteration)",
+            vec![(
+                "friction_mu = 0.005\n",
+                "friction_mu = 0.005\n\n[solver]\nlock_tol_m = 1e-9\nnewmark_max_iteration = 5\n",
+            )],
+            Loc::Line("newmark_max_iteration"),
+            &["unknown field `newmark_max_iteration`", "newmark_max_iterations"],
+        ),
+        case(
+            "[solver] with an iteration limit of 0",
+            vec![(
+                "friction_mu = 0.005\n",
+                "friction_mu = 0.005\n\n[solver]\nroot_max_iterations = 0\n",
+            )],
+            Loc::Table("root_max_iterations"),
+            &["[solver] root_max_iterations = 0", "at least 1"],
+        ),
+        case(
+            "[solver] with a NaN tolerance",
+            vec![(
+                "friction_mu = 0.005\n",
+                "friction_mu = 0.005\n\n[solver]\nlock_tol_m = nan\n",
+            )],
+            Loc::Table("lock_tol_m"),
+            &["[solver] lock_tol_m = NaN", "finite number > 0"],
+        ),
         Case {
             what: "empty file",
             edits: vec![],

@@ -8,6 +8,7 @@ use std::path::{Path, PathBuf};
 use truss_deploy::model::generate::{self, MastParams};
 use truss_deploy::model::{load, parse};
 use truss_deploy::solver::jacobian::Jacobian;
+use truss_deploy::solver::linsolve::SolveMode;
 use truss_deploy::solver::{Model, Options, Simulator, SolverKind};
 
 fn models() -> Vec<PathBuf> {
@@ -223,8 +224,12 @@ fn compare_single(model: &Model, x: &[f64], locked: &[bool], seed: u64) {
     // from consistent falls back to the least-squares answer.
     let c_far: Vec<f64> = c.iter().map(|v| v + 1e-2 * rng.next()).collect();
     for _ in 0..2 {
-        dense.factor(&jac, &model.inv_mass).unwrap();
-        sparse.factor(&jac, &model.inv_mass).unwrap();
+        dense
+            .factor(&jac, &model.inv_mass, SolveMode::Basic)
+            .unwrap();
+        sparse
+            .factor(&jac, &model.inv_mass, SolveMode::Basic)
+            .unwrap();
     }
     let forces = |l: &[f64]| {
         let mut f = vec![0.0; n];
@@ -237,8 +242,12 @@ fn compare_single(model: &Model, x: &[f64], locked: &[bool], seed: u64) {
     ] {
         let (mut ad, mut ld) = (vec![0.0; n], vec![0.0; m]);
         let (mut as_, mut ls) = (vec![0.0; n], vec![0.0; m]);
-        dense.accelerations(&jac, &model.inv_mass, &q, cc, &mut ad, &mut ld);
-        sparse.accelerations(&jac, &model.inv_mass, &q, cc, &mut as_, &mut ls);
+        dense
+            .accelerations(&jac, &model.inv_mass, &q, cc, &mut ad, &mut ld)
+            .unwrap();
+        sparse
+            .accelerations(&jac, &model.inv_mass, &q, cc, &mut as_, &mut ls)
+            .unwrap();
         let ea = max_diff(&ad, &as_) / max_abs(&ad);
         let ef = max_diff(&forces(&ld), &forces(&ls)) / max_abs(&forces(&ld));
         eprintln!("{label}: rel. diff accelerations {ea:.1e}, joint forces {ef:.1e}");
@@ -256,8 +265,12 @@ fn compare_single(model: &Model, x: &[f64], locked: &[bool], seed: u64) {
         let (mut ds, mut ms) = (vec![0.0; n], vec![0.0; m]);
         let mut av = vec![0.0; m];
         jac.mul(&w, &mut av);
-        dense.correction(&jac, &model.inv_mass, &av, &mut dd, &mut md);
-        sparse.correction(&jac, &model.inv_mass, &av, &mut ds, &mut ms);
+        dense
+            .correction(&jac, &model.inv_mass, &av, &mut dd, &mut md)
+            .unwrap();
+        sparse
+            .correction(&jac, &model.inv_mass, &av, &mut ds, &mut ms)
+            .unwrap();
         let ex = max_diff(&dd, &ds) / max_abs(&dd);
         eprintln!("basic, consistent r: rel. diff dx {ex:.1e}");
         assert!(
@@ -267,18 +280,25 @@ fn compare_single(model: &Model, x: &[f64], locked: &[bool], seed: u64) {
     }
 
     // Minimum-norm solves (latch impulses): the multipliers themselves agree.
-    sparse.set_min_norm(true);
     // factor twice: the second factor() reuses the symbolic analysis
     for _ in 0..2 {
-        dense.factor(&jac, &model.inv_mass).unwrap();
-        sparse.factor(&jac, &model.inv_mass).unwrap();
+        dense
+            .factor(&jac, &model.inv_mass, SolveMode::MinNorm)
+            .unwrap();
+        sparse
+            .factor(&jac, &model.inv_mass, SolveMode::MinNorm)
+            .unwrap();
     }
     assert_eq!(sparse.name(), "sparse");
     for (label, cc, tol) in [("consistent c", &c, 1e-9), ("inconsistent c", &c_bad, 1e-9)] {
         let (mut ad, mut ld) = (vec![0.0; n], vec![0.0; m]);
         let (mut as_, mut ls) = (vec![0.0; n], vec![0.0; m]);
-        dense.accelerations(&jac, &model.inv_mass, &q, cc, &mut ad, &mut ld);
-        sparse.accelerations(&jac, &model.inv_mass, &q, cc, &mut as_, &mut ls);
+        dense
+            .accelerations(&jac, &model.inv_mass, &q, cc, &mut ad, &mut ld)
+            .unwrap();
+        sparse
+            .accelerations(&jac, &model.inv_mass, &q, cc, &mut as_, &mut ls)
+            .unwrap();
         let ea = max_diff(&ad, &as_) / max_abs(&ad);
         let (fd, fs) = (forces(&ld), forces(&ls));
         let ef = max_diff(&fd, &fs) / max_abs(&fd);
@@ -306,8 +326,12 @@ fn compare_single(model: &Model, x: &[f64], locked: &[bool], seed: u64) {
     ] {
         let (mut dd, mut md) = (vec![0.0; n], vec![0.0; m]);
         let (mut ds, mut ms) = (vec![0.0; n], vec![0.0; m]);
-        dense.correction(&jac, &model.inv_mass, r, &mut dd, &mut md);
-        sparse.correction(&jac, &model.inv_mass, r, &mut ds, &mut ms);
+        dense
+            .correction(&jac, &model.inv_mass, r, &mut dd, &mut md)
+            .unwrap();
+        sparse
+            .correction(&jac, &model.inv_mass, r, &mut ds, &mut ms)
+            .unwrap();
         let ex = max_diff(&dd, &ds) / max_abs(&dd);
         let em = max_diff(&md, &ms) / max_abs(&md);
         eprintln!("{label}: rel. diff dx {ex:.1e}, multipliers {em:.1e}");
@@ -433,14 +457,15 @@ fn refinement_converges_in_few_steps() {
         jac.fill(model, &s.state().x);
         let (m, n) = (jac.nrows, jac.ncols);
         let mut sp = SparseSchur::default();
-        sp.factor(&jac, &model.inv_mass).unwrap();
+        sp.factor(&jac, &model.inv_mass, SolveMode::Basic).unwrap();
         let mut rng = Lcg(3);
         let q = rng.vec(n, 1.0);
         let w = rng.vec(n, 1.0);
         let mut c = vec![0.0; m];
         jac.mul(&w, &mut c);
         let (mut a, mut l) = (vec![0.0; n], vec![0.0; m]);
-        sp.accelerations(&jac, &model.inv_mass, &q, &c, &mut a, &mut l);
+        sp.accelerations(&jac, &model.inv_mass, &q, &c, &mut a, &mut l)
+            .unwrap();
         eprintln!(
             "{units} units: {} refinement steps, {} inconsistent",
             sp.total_iterations, sp.inconsistent_solves
@@ -483,7 +508,9 @@ fn pivot_rank_matches_the_svd_rank() {
             let mut jac = Jacobian::pattern(model, locked);
             jac.fill(model, x);
             let mut sparse = SolverKind::Sparse.make();
-            sparse.factor(&jac, &model.inv_mass).expect("factors");
+            sparse
+                .factor(&jac, &model.inv_mass, SolveMode::Basic)
+                .expect("factors");
             let svd = truss_deploy::solver::mobility::rank(&jac);
             assert_eq!(
                 sparse.pivot_rank(),

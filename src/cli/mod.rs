@@ -446,6 +446,7 @@ fn bench(a: BenchArgs) -> Result<(), Failure> {
             out.factorizations_per_step
         );
     }
+    say!("  solver stats: {}", sim.solver_stats().line());
     if let Some(j) = &a.json {
         write_json(j, &out)?;
     }

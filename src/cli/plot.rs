@@ -566,24 +566,15 @@ fn draw_footer(
     Ok(())
 }
 
-/// The members to draw: every element's joint pairs (rods of scissors, plate
-/// edges, bars, sleeves); constraint-only elements (coplanar, perpendicular,
-/// sync_hinge, support, centroid) are not members. `true` marks a sleeve.
+/// The members to draw: every element's own (`Constraint::members`: rods of
+/// scissors, plate edges, bars, sleeves; constraint-only elements contribute
+/// none). `true` marks a member of a lockable element.
 pub fn members(model: &Model) -> Vec<(usize, usize, bool)> {
     let mut out = Vec::new();
     for e in &model.elements {
         let j = e.joints();
-        let sleeve = e.lock_gap(&model.x0).is_some();
-        let pairs: &[(usize, usize)] = match (e.kind(), j.len()) {
-            ("scissor", 4) => &[(0, 1), (2, 3)],
-            ("angulated_scissor", 5) => &[(0, 1), (1, 2), (3, 1), (1, 4)],
-            ("plate", 4) => &[(0, 1), (1, 2), (2, 3), (3, 0)],
-            ("bar" | "sleeve", 2) => &[(0, 1)],
-            // coplanar, perpendicular, sync_hinge, hinge_axis, support, centroid:
-            // constraints between members, not members.
-            _ => &[],
-        };
-        out.extend(pairs.iter().map(|&(a, b)| (j[a], j[b], sleeve)));
+        let lockable = e.lock_gap(&model.x0).is_some();
+        out.extend(e.members().iter().map(|&[a, b]| (j[a], j[b], lockable)));
     }
     out
 }

@@ -1,7 +1,7 @@
 //! `truss-deploy simulate`: offline run to full deployment.
 
 use super::{make_simulator, plot, write_json, Failure, SolverArg};
-use crate::solver::{Energy, LockEvent, Simulator};
+use crate::solver::{Energy, LockEvent, Simulator, SolverStats};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
@@ -70,6 +70,9 @@ pub struct SimulateJson {
     pub locks: Vec<LockEvent>,
     /// Set when the run stopped on an error; everything above is what was computed until then.
     pub error: Option<String>,
+    /// What the solver did: steps, sub-steps, iterations, factorizations,
+    /// solves, fallbacks by kind, latch searches.
+    pub solver_stats: SolverStats,
 }
 
 fn check_positive(name: &str, v: Option<f64>) -> Result<(), Failure> {
@@ -204,6 +207,7 @@ pub fn run(a: SimulateArgs) -> Result<(), Failure> {
         energy: s.energy.clone(),
         locks: s.locks.clone(),
         error: error.clone(),
+        solver_stats: sim.solver_stats().clone(),
     };
     print_summary(&summary);
     if let Some(j) = &a.json {

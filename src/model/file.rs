@@ -13,6 +13,9 @@
 //! gravity_m_s2 = [0.0, 0.0, 0.0]
 //! damping_n_s_per_m = 0.0    # viscous, on each joint's velocity
 //!
+//! [solver]                   # all optional: tolerances and iteration limits,
+//! newmark_max_iterations = 60  # keys and defaults in solver::settings
+//!
 //! [[joint]]
 //! name = "L0"
 //! position_m = [0.0, 0.0, 0.0]
@@ -37,7 +40,7 @@
 //! ```
 
 use crate::solver::elements::{ElementSpec, Param};
-use crate::solver::{Cable, Joint, Model, ModelParts, SolverError};
+use crate::solver::{Cable, Joint, Model, ModelParts, SolverError, SolverSettings};
 use serde::Deserialize;
 use std::collections::BTreeMap;
 use std::fmt;
@@ -150,6 +153,8 @@ struct FileSpec {
     model: Header,
     #[serde(default)]
     settings: Settings,
+    #[serde(default)]
+    solver: Option<Spanned<SolverSettings>>,
     #[serde(default, rename = "joint")]
     joints: Vec<Spanned<JointSpec>>,
     #[serde(default, rename = "element")]
@@ -199,6 +204,14 @@ pub fn parse(text: &str, file: &str) -> Result<LoadedModel, ModelFileError> {
         )
     })?;
     let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
+    if let Some(solver) = &spec.solver {
+        solver.get_ref().validate().map_err(|m| {
+            err(
+                Some(solver.span()),
+                format!("{m}; see `[solver]` in the README (section Model files)"),
+            )
+        })?;
+    }
     let s = &spec.settings;
     if !finite(&[s.dt_s, s.end_time_s, s.damping_n_s_per_m]) || !finite(&s.gravity_m_s2) {
         return Err(err(
@@ -398,7 +411,7 @@ pub fn parse(text: &str, file: &str) -> Result<LoadedModel, ModelFileError> {
         dt_s: s.dt_s,
         end_time_s: s.end_time_s,
     };
-    let model = Model::build(parts).map_err(|(i, e)| {
+    let mut model = Model::build(parts).map_err(|(i, e)| {
         let msg = e.to_string();
         // Model::build reports element errors by element index, cable errors by cable index.
         let span = if msg.starts_with("element") {
@@ -410,7 +423,9 @@ pub fn parse(text: &str, file: &str) -> Result<LoadedModel, ModelFileError> {
         };
         err(span, msg)
     })?;
-    if let Some((e, row, residual)) = model.initial_violation(1e-6) {
+    model.solver = spec.solver.map(Spanned::into_inner).unwrap_or_default();
+    let limit_m = model.solver.initial_tol_m;
+    if let Some((e, row, residual)) = model.initial_violation(limit_m) {
         let el = &model.elements[e];
         let span = element_spans.get(e).cloned();
         let e = SolverError::InitialViolation {
@@ -418,6 +433,7 @@ pub fn parse(text: &str, file: &str) -> Result<LoadedModel, ModelFileError> {
             kind: el.kind(),
             row,
             residual_m: residual,
+            limit_m,
         };
         return Err(err(span, e.to_string()));
     }

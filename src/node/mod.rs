@@ -721,6 +721,7 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
         summary.publications,
         summary.overruns
     );
+    println!("truss_deploy: solver stats: {}", sim.solver_stats().line());
     match rec_error {
         Some(e) => Err(NodeError::Run(e)),
         None => Ok(summary),

@@ -50,35 +50,18 @@ impl View {
         let mut members = Vec::new();
         for (e, el) in m.elements.iter().enumerate() {
             let js = el.joints();
-            match el.kind() {
-                "scissor" if js.len() == 4 => {
-                    names.push(el.name().to_string());
-                    joints.push(MJoint::Hinge([js[0], js[1], js[2], js[3]]));
-                    members.push((js[0], js[1], None));
-                    members.push((js[2], js[3], None));
-                }
-                "sleeve" if js.len() == 2 => {
-                    names.push(el.name().to_string());
-                    joints.push(MJoint::Slide(e));
-                    members.push((js[0], js[1], Some(e)));
-                }
-                "angulated_scissor" if js.len() == 5 => {
-                    let o = js[1];
-                    for &q in &[js[0], js[2], js[3], js[4]] {
-                        members.push((q, o, None));
-                    }
-                }
-                "plate" if js.len() == 4 => {
-                    for q in 0..4 {
-                        members.push((js[q], js[(q + 1) % 4], None));
-                    }
-                }
-                "support" => {}
-                _ => {
-                    for w in js.windows(2) {
-                        members.push((w[0], w[1], None));
-                    }
-                }
+            // Mechanism joints: a scissor's pivot (revolute), a lockable
+            // element (prismatic); members: what the element contributes.
+            let lockable = el.lock_gap(&m.x0).is_some();
+            if el.kind() == "scissor" && js.len() == 4 {
+                names.push(el.name().to_string());
+                joints.push(MJoint::Hinge([js[0], js[1], js[2], js[3]]));
+            } else if lockable {
+                names.push(el.name().to_string());
+                joints.push(MJoint::Slide(e));
+            }
+            for &[a, b] in el.members() {
+                members.push((js[a], js[b], lockable.then_some(e)));
             }
         }
         View {

@@ -6,8 +6,7 @@ use super::jacobian::Jacobian;
 use super::model::Model;
 use serde::Serialize;
 
-/// Relative singular-value threshold of the rank decision.
-pub const RANK_TOL: f64 = 1e-9;
+pub use super::rank::RANK_TOL;
 
 #[derive(Clone, Debug, Serialize)]
 pub struct ElementRows {
@@ -28,14 +27,9 @@ pub struct Mobility {
     pub per_element: Vec<ElementRows>,
 }
 
-/// Numerical rank of A by SVD.
+/// Numerical rank of A by SVD (the one decision: [`super::rank`]).
 pub fn rank(jac: &Jacobian) -> usize {
-    if jac.nrows == 0 {
-        return 0;
-    }
-    let sv = jac.to_dense().singular_values();
-    let smax = sv.iter().cloned().fold(0.0, f64::max);
-    sv.iter().filter(|s| **s > RANK_TOL * smax).count()
+    super::rank::of_jacobian(jac)
 }
 
 /// Mobility of `model` at positions `x` with the given locked set.
@@ -45,7 +39,7 @@ pub fn analyze(model: &Model, x: &[f64], locked: &[bool]) -> Mobility {
     let r = rank(&jac);
     let dense = jac.to_dense();
     // Greedy row selection with a Gram-Schmidt basis: a row is redundant if it
-    // lies (to RANK_TOL) in the span of the rows before it.
+    // lies (to ROW_SINE_TOL) in the span of the rows before it.
     let mut basis: Vec<nalgebra::DVector<f64>> = Vec::new();
     let mut redundant = Vec::new();
     for row in 0..jac.nrows {
@@ -57,7 +51,7 @@ pub fn analyze(model: &Model, x: &[f64], locked: &[bool]) -> Mobility {
                 w.axpy(-p, q, 1.0);
             }
         }
-        if w.norm() > 1e-8 * norm0.max(1e-300) {
+        if !super::rank::row_is_redundant(w.norm_squared() / norm0.max(1e-300).powi(2)) {
             basis.push(w.normalize());
         } else {
             let (e, local) = jac.row_owner(row);

@@ -10,14 +10,19 @@ pub mod jacobian;
 pub mod linsolve;
 pub mod mobility;
 pub mod model;
+pub mod rank;
+pub mod settings;
 pub mod simulator;
 pub mod state;
+pub mod stats;
 pub mod vec3;
 
 pub use linsolve::SolverKind;
 pub use model::{Cable, Joint, Model, ModelParts};
+pub use settings::SolverSettings;
 pub use simulator::{Options, Simulator};
 pub use state::{Energy, LockEvent, State};
+pub use stats::SolverStats;
 
 use std::fmt;
 
@@ -30,6 +35,7 @@ pub enum SolverError {
         kind: &'static str,
         row: usize,
         residual_m: f64,
+        limit_m: f64,
     },
     NonFinite(String),
     NoConvergence {
@@ -38,15 +44,29 @@ pub enum SolverError {
     Projection {
         violation_m: f64,
     },
+    /// The latch root search ended at its iteration limit with the element's
+    /// gap beyond the latch tolerance.
+    LatchSearch {
+        element: String,
+        t_s: f64,
+        gap_m: f64,
+        iterations: usize,
+    },
+    /// A lockable element passed its lock without latching.
+    MissedLatch {
+        element: String,
+        t_s: f64,
+        gap_m: f64,
+    },
 }
 
 impl fmt::Display for SolverError {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
             SolverError::Invalid(s) => write!(f, "{s}"),
-            SolverError::InitialViolation { element, kind, row, residual_m } => write!(
+            SolverError::InitialViolation { element, kind, row, residual_m, limit_m } => write!(
                 f,
-                "the initial geometry violates {kind} element `{element}` (row {row} has residual {residual_m:.3e} m, the limit is 1e-6 m); \
+                "the initial geometry violates {kind} element `{element}` (row {row} has residual {residual_m:.3e} m, the limit is {limit_m:e} m); \
                  fix the joint positions so that the element's constraints hold, e.g. regenerate the model with `truss-deploy generate`"
             ),
             SolverError::NonFinite(what) => write!(f, "non-finite values in the {what}; check masses, tensions and geometry"),
@@ -56,6 +76,16 @@ impl fmt::Display for SolverError {
             SolverError::Projection { violation_m } => write!(
                 f,
                 "projection onto the constraints failed (|Phi| = {violation_m:.3e} m): the truss reached a singular or locked-up configuration"
+            ),
+            SolverError::LatchSearch { element, t_s, gap_m, iterations } => write!(
+                f,
+                "the latch search for `{element}` stopped at its limit of {iterations} iterations at t = {t_s:.9} s \
+                 with the gap {gap_m:.3e} m, beyond the latch tolerance; raise [solver] root_max_iterations or use a smaller --dt"
+            ),
+            SolverError::MissedLatch { element, t_s, gap_m } => write!(
+                f,
+                "`{element}` passed its lock without latching (gap {gap_m:.3e} m at t = {t_s:.9} s); \
+                 tighten [solver] root_tol_m or use a smaller --dt"
             ),
         }
     }

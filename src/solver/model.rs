@@ -3,6 +3,7 @@
 //! environment. What a step changes lives in [`crate::solver::State`].
 
 use super::elements::{self, Constraint, ElementSpec};
+use super::settings::SolverSettings;
 use super::SolverError;
 
 #[derive(Clone, Debug)]
@@ -55,6 +56,9 @@ pub struct Model {
     pub inv_mass: Vec<f64>,
     /// Indices into `elements` of the elements that latch (sleeves).
     pub locks: Vec<usize>,
+    /// Tolerances and iteration limits of the solver (the model file's
+    /// `[solver]` table; defaults when it has none).
+    pub solver: SolverSettings,
 }
 
 pub struct ModelParts {
@@ -214,6 +218,7 @@ impl Model {
             mass,
             inv_mass,
             locks,
+            solver: SolverSettings::default(),
         })
     }
 
@@ -247,7 +252,9 @@ impl Model {
     pub fn initial_violation(&self, tol: f64) -> Option<(usize, usize, f64)> {
         let mut buf = Vec::new();
         for (e, el) in self.elements.iter().enumerate() {
-            let starts_locked = el.lock_gap(&self.x0).is_some_and(|g| g.abs() <= 1e-9);
+            let starts_locked = el
+                .lock_gap(&self.x0)
+                .is_some_and(|g| g.abs() <= self.solver.lock_tol_m);
             let rows = el.rows(starts_locked);
             buf.resize(rows, 0.0);
             if rows == 0 {

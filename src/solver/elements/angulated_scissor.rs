@@ -87,6 +87,10 @@ pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, Stri
 
 impl Constraint for AngulatedScissor {
     super::identity!("angulated_scissor");
+    /// The four arms from the hinge o to i, j, k, l.
+    fn members(&self) -> &'static [[usize; 2]] {
+        &[[0, 1], [1, 2], [3, 1], [1, 4]]
+    }
     fn rows(&self, _locked: bool) -> usize {
         8
     }

@@ -42,6 +42,9 @@ pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, Stri
 
 impl Constraint for Bar {
     super::identity!("bar");
+    fn members(&self) -> &'static [[usize; 2]] {
+        &[[0, 1]]
+    }
     fn rows(&self, _locked: bool) -> usize {
         1
     }

@@ -6,7 +6,10 @@
 //! joints, and the convective term (dA_e/dt) Xdot = Xdot^T (d2 Phi_e / dX2) Xdot
 //! that enters the acceleration equation A Xddot + Adot Xdot = 0.
 //!
-//! Adding an element type touches its own file and the `REGISTRY` below.
+//! An element also describes itself: its lock condition if it latches
+//! (`lock_gap`, `lock_condition`), and the members it contributes for drawing
+//! (`members`). Adding an element type touches its own file and the
+//! `REGISTRY` below.
 
 use super::vec3::Vec3;
 use std::collections::BTreeMap;
@@ -99,6 +102,14 @@ pub fn at(x: &[f64], joint: usize) -> Vec3 {
     Vec3::new(x[3 * joint], x[3 * joint + 1], x[3 * joint + 2])
 }
 
+/// The lock condition of a lockable element: the signed gap whose zero is the
+/// latch (m) and its rate (m/s).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LockCondition {
+    pub gap_m: f64,
+    pub rate_m_s: f64,
+}
+
 /// A constraint macroelement. Rows are the element's own equations; `jacobian`
 /// writes `rows x 3*joints().len()` values, row-major, columns ordered as
 /// (x, y, z) of `joints()[0]`, then of `joints()[1]`, and so on.
@@ -120,6 +131,19 @@ pub trait Constraint: Send + Sync + fmt::Debug {
     /// condition (sleeve length minus design length, m). `None` if it never locks.
     fn lock_gap(&self, _x: &[f64]) -> Option<f64> {
         None
+    }
+    /// For lockable elements: the lock condition at (X, Xdot), the gap g and
+    /// its rate dg/dt. The latch search asks for it (a sign change of g over
+    /// a step, or g closing at the start and opening at the end: a touch).
+    fn lock_condition(&self, _x: &[f64], _v: &[f64]) -> Option<LockCondition> {
+        None
+    }
+    /// The members (rods, struts, edges) the element contributes, as pairs of
+    /// positions in `joints()`: what the plots and the node draw. Elements
+    /// that only constrain members (coplanarity, right angles, gears,
+    /// supports, centroids, hinge axes) contribute none.
+    fn members(&self) -> &'static [[usize; 2]] {
+        &[]
     }
     /// For lockable elements: the current length and its rate (m, m/s), used to
     /// publish sleeves as prismatic joints.

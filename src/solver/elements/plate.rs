@@ -83,6 +83,10 @@ pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, Stri
 
 impl Constraint for Plate {
     super::identity!("plate");
+    /// The four edges (either formulation).
+    fn members(&self) -> &'static [[usize; 2]] {
+        &[[0, 1], [1, 2], [2, 3], [3, 0]]
+    }
     fn rows(&self, _locked: bool) -> usize {
         6
     }

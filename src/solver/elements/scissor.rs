@@ -83,6 +83,10 @@ pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, Stri
 
 impl Constraint for Scissor {
     super::identity!("scissor");
+    /// The two rods i-j and k-l.
+    fn members(&self) -> &'static [[usize; 2]] {
+        &[[0, 1], [2, 3]]
+    }
     fn rows(&self, _locked: bool) -> usize {
         6
     }

@@ -4,7 +4,7 @@
 //! zero of the gap g(X) = |X_b - X_a| - L_lock, approached from either side.
 
 use super::kernels::Distance;
-use super::{at, Constraint, ElementSpec};
+use super::{at, Constraint, ElementSpec, LockCondition};
 
 #[derive(Debug)]
 pub struct Sleeve {
@@ -65,6 +65,17 @@ impl Constraint for Sleeve {
     }
     fn lock_gap(&self, x: &[f64]) -> Option<f64> {
         Some(self.row().residual(x))
+    }
+    /// g = |X_b - X_a| - L_lock, dg/dt = e . (Xdot_b - Xdot_a).
+    fn lock_condition(&self, x: &[f64], v: &[f64]) -> Option<LockCondition> {
+        let (_, rate_m_s) = self.extension(x, v)?;
+        Some(LockCondition {
+            gap_m: self.row().residual(x),
+            rate_m_s,
+        })
+    }
+    fn members(&self) -> &'static [[usize; 2]] {
+        &[[0, 1]]
     }
     fn extension(&self, x: &[f64], v: &[f64]) -> Option<(f64, f64)> {
         let d = at(x, self.joints[1]) - at(x, self.joints[0]);

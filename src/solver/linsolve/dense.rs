@@ -10,16 +10,17 @@
 //! scaled coordinates y = M^1/2 X:
 //!     y'' = V_0 V_0^T f - B^+ c,   f = M^-1/2 Q,   c = Adot Xdot,
 //! and V_0 V_0^T = I - V_r V_r^T needs only the thin SVD. Multipliers follow from
-//! B^T lambda = y'' - f. Singular values below `RANK_TOL` * s_max count as zero, so
-//! redundant rows (states of self-stress) are handled exactly.
+//! B^T lambda = y'' - f. The rank is the one decision of `crate::solver::rank`
+//! (the one `analyze` makes), so redundant rows (states of self-stress) are
+//! handled exactly and both count alike. Both modes give the minimum-norm
+//! multipliers.
 
 use super::ConstraintSolver;
 use crate::solver::jacobian::Jacobian;
 use crate::solver::SolverError;
 use nalgebra::{DMatrix, DVector};
 
-/// The rank decision is the one `analyze` makes, so both count alike.
-use crate::solver::mobility::RANK_TOL;
+use super::{FactorReport, SolveMode, SolveReport};
 
 #[derive(Default)]
 pub struct DenseNullSpace {
@@ -60,7 +61,12 @@ impl ConstraintSolver for DenseNullSpace {
         "dense"
     }
 
-    fn factor(&mut self, jac: &Jacobian, inv_mass: &[f64]) -> Result<(), SolverError> {
+    fn factor(
+        &mut self,
+        jac: &Jacobian,
+        inv_mass: &[f64],
+        _mode: SolveMode,
+    ) -> Result<FactorReport, SolverError> {
         let mut b = DMatrix::<f64>::zeros(jac.nrows.max(1), jac.ncols);
         jac.for_each(|r, c, a| b[(r, c)] += a * inv_mass[c].sqrt());
         if b.iter().any(|v| !v.is_finite()) {
@@ -68,7 +74,6 @@ impl ConstraintSolver for DenseNullSpace {
         }
         let svd = b.svd(true, true);
         let (u, vt) = (svd.u.expect("u requested"), svd.v_t.expect("v_t requested"));
-        let smax = svd.singular_values.iter().cloned().fold(0.0, f64::max);
         // nalgebra sorts singular values in decreasing order.
         let mut order: Vec<usize> = (0..svd.singular_values.len()).collect();
         order.sort_by(|&a, &b| svd.singular_values[b].total_cmp(&svd.singular_values[a]));
@@ -78,9 +83,12 @@ impl ConstraintSolver for DenseNullSpace {
         self.rank = if jac.nrows == 0 {
             0
         } else {
-            self.sigma.iter().filter(|s| **s > RANK_TOL * smax).count()
+            crate::solver::rank::numerical_rank(&self.sigma)
         };
-        Ok(())
+        Ok(FactorReport {
+            fresh: true,
+            probed: false,
+        })
     }
 
     fn accelerations(
@@ -91,7 +99,7 @@ impl ConstraintSolver for DenseNullSpace {
         c: &[f64],
         a: &mut [f64],
         lambda: &mut [f64],
-    ) {
+    ) -> Result<SolveReport, SolverError> {
         let n = q.len();
         let f = DVector::from_fn(n, |i, _| q[i] * inv_mass[i].sqrt());
         // y'' = (I - V_r V_r^T) f - B^+ c
@@ -107,6 +115,7 @@ impl ConstraintSolver for DenseNullSpace {
             let l = self.pinv_t(&(y - f));
             lambda.copy_from_slice(&l.as_slice()[..lambda.len()]);
         }
+        Ok(SolveReport::DIRECT)
     }
 
     fn correction(
@@ -116,7 +125,7 @@ impl ConstraintSolver for DenseNullSpace {
         r: &[f64],
         dx: &mut [f64],
         mu: &mut [f64],
-    ) {
+    ) -> Result<SolveReport, SolverError> {
         let dy = self.pinv(r);
         for i in 0..dx.len() {
             dx[i] = dy[i] * inv_mass[i].sqrt();
@@ -133,6 +142,7 @@ impl ConstraintSolver for DenseNullSpace {
         });
         let m = self.u.columns(0, self.rank) * w;
         mu.copy_from_slice(&m.as_slice()[..mu.len()]);
+        Ok(SolveReport::DIRECT)
     }
 
     fn rank(&self) -> Option<usize> {

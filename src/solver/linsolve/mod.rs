@@ -8,7 +8,7 @@
 //!
 //! Redundant rows make S singular. The motion (accelerations, corrections,
 //! joint forces A^T lambda) is unique; the multipliers are not. In
-//! minimum-norm mode (`set_min_norm`) every backend returns S^+ r, the
+//! minimum-norm mode (`SolveMode::MinNorm`, an argument of `factor`) every backend returns S^+ r, the
 //! least-squares, minimum-norm multipliers; otherwise a backend may return any
 //! exact set (the sparse one leaves the rows it found redundant at zero). A
 //! backend is factored once per configuration and then solves as often as
@@ -20,11 +20,74 @@ use super::SolverError;
 pub mod dense;
 pub mod sparse;
 
+/// Which multipliers a factorization's solves return. For a consistent
+/// right-hand side the motion is the same; off the constraint manifold
+/// (Newmark iterates), where redundant rows are only nearly dependent, the two
+/// differ at first order in the residual.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SolveMode {
+    /// Any exact set of multipliers (the sparse backend leaves the rows it
+    /// found redundant at zero): the stepping loop.
+    Basic,
+    /// The least-squares, minimum-norm multipliers S^+ r: latch impulses
+    /// shared among redundant rows, the latch search, stalled iterations.
+    MinNorm,
+}
+
+/// What a `factor` request did.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct FactorReport {
+    /// A numeric factorization was made (else a kept one serves).
+    pub fresh: bool,
+    /// The redundant rows were probed (a rejecting factorization of every row).
+    pub probed: bool,
+}
+
+/// What a solve did: its iterations, its final relative residual, whether it
+/// met its tolerance, and the fallbacks it took on the way.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct SolveReport {
+    pub iterations: usize,
+    /// Max |rhs - S lambda| / max |rhs| of the answer (0 for a direct solve).
+    pub residual_rel: f64,
+    /// False when the last iteration stopped at its iteration limit.
+    pub converged: bool,
+    /// The kept factorization was redone inside the solve.
+    pub refactored: bool,
+    /// The redundant rows were probed again inside the solve.
+    pub reprobed: bool,
+    /// The right-hand side was inconsistent: answered in least squares.
+    pub least_squares: bool,
+}
+
+impl SolveReport {
+    /// A direct solve (nothing iterated, nothing to fall back on).
+    pub const DIRECT: SolveReport = SolveReport {
+        iterations: 0,
+        residual_rel: 0.0,
+        converged: true,
+        refactored: false,
+        reprobed: false,
+        least_squares: false,
+    };
+}
+
+/// A backend for the solves with S = A M^-1 A^T. `factor` is asked for a
+/// factorization at the Jacobian values in `jac` in a given mode (it may serve
+/// a kept one); the solves that follow use it, whatever they need to redo
+/// inside is reported.
 pub trait ConstraintSolver: Send {
     fn name(&self) -> &'static str;
-    /// Factor at the Jacobian values currently in `jac`.
-    fn factor(&mut self, jac: &Jacobian, inv_mass: &[f64]) -> Result<(), SolverError>;
+    /// Factor (or reuse a kept factorization) at the Jacobian values currently
+    /// in `jac`, for solves in `mode`.
+    fn factor(
+        &mut self,
+        jac: &Jacobian,
+        inv_mass: &[f64],
+        mode: SolveMode,
+    ) -> Result<FactorReport, SolverError>;
     /// Constrained accelerations `a` and multipliers `lambda` (member forces, N).
+    #[allow(clippy::too_many_arguments)]
     fn accelerations(
         &mut self,
         jac: &Jacobian,
@@ -33,8 +96,8 @@ pub trait ConstraintSolver: Send {
         c: &[f64],
         a: &mut [f64],
         lambda: &mut [f64],
-    );
-    /// dx = M^-1 A^T mu with mu = S^+ r (minimum-norm multipliers).
+    ) -> Result<SolveReport, SolverError>;
+    /// dx = M^-1 A^T mu with mu = S^+ r (in the mode of the factorization).
     fn correction(
         &mut self,
         jac: &Jacobian,
@@ -42,25 +105,16 @@ pub trait ConstraintSolver: Send {
         r: &[f64],
         dx: &mut [f64],
         mu: &mut [f64],
-    );
-    /// Whether later solves must return the least-squares, minimum-norm
-    /// multipliers S^+ r (latch impulses shared among redundant rows) or may
-    /// return any exact set (faster where the backend distinguishes them).
-    /// For a consistent right-hand side the motion is the same; off the
-    /// constraint manifold (Newmark iterates), where redundant rows are only
-    /// nearly dependent, the two differ at first order in the residual.
-    /// Returns whether this backend distinguishes them at all.
-    fn set_min_norm(&mut self, _on: bool) -> bool {
+    ) -> Result<SolveReport, SolverError>;
+    /// Whether the two modes give different multipliers with this backend
+    /// (the dense one always returns the minimum-norm ones).
+    fn distinguishes_modes(&self) -> bool {
         false
     }
     /// The rows a basic solve keeps (the others are taken as redundant), where
     /// the backend drops any.
     fn kept_rows(&self) -> Option<&[usize]> {
         None
-    }
-    /// Whether minimum-norm mode is on (always false where it makes no difference).
-    fn is_min_norm(&self) -> bool {
-        false
     }
     /// Rank of A by pivot rejection (redundant rows found by a factorization),
     /// at the last basic factorization: far cheaper than an SVD and equal to it

@@ -31,7 +31,7 @@
 //!   is inconsistent and the least-squares answer below is returned. Position
 //!   corrections are exempt (Phi is inconsistent at second order by nature and
 //!   Newton on the kept rows converges on all of them).
-//! - Minimum-norm (`set_min_norm(true)`: latch impulses and the latch search,
+//! - Minimum-norm (`SolveMode::MinNorm`: latch impulses and the latch search,
 //!   stalled Newmark iterations and projections, inconsistent right-hand
 //!   sides). With delta = `REG_REL` * max diag(S) the regularized matrix
 //!   R = S + delta I over every row is positive definite and its LDL^T is used
@@ -54,7 +54,7 @@
 //! along null(S). `pivot_rank()` is the number of kept rows less those the last
 //! basic factorization rejected.
 
-use super::ConstraintSolver;
+use super::{ConstraintSolver, FactorReport, SolveMode, SolveReport};
 use crate::solver::jacobian::Jacobian;
 use crate::solver::SolverError;
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
@@ -69,10 +69,11 @@ use faer::{Conj, MatMut, Par, Side};
 
 /// Regularization relative to the largest diagonal entry of S (minimum-norm solves).
 pub const REG_REL: f64 = 1e-10;
-/// A pivot of the unit-diagonal S~ below this marks a redundant row: the row's
-/// component outside the span of the rows before it is below 1e-5 of its
-/// length. Roundoff leaves ~1e-14 on truly redundant rows.
-pub const REJECT_TOL: f64 = 1e-10;
+/// A pivot of the unit-diagonal S~ below this marks a redundant row: the
+/// pivot is the squared sine of the angle between the row and the span of the
+/// rows before it, so this is the one row decision of `crate::solver::rank`
+/// (a sine of 1e-5). Roundoff leaves ~1e-14 on truly redundant rows.
+pub const REJECT_TOL: f64 = crate::solver::rank::ROW_SINE_SQ_TOL;
 /// The pivot given to a rejected row: its multiplier and couplings become
 /// ~1 / REJECT_DELTA of the others'.
 const REJECT_DELTA: f64 = 1e24;
@@ -176,13 +177,13 @@ pub struct SparseSchur {
     // minimum-norm one on every row.
     slots: [Slot; 3],
     active: usize,
-    /// Solves return the minimum-norm multipliers (else a basic set).
-    min_norm: bool,
     /// Rank of A found by the last basic factorization made fresh at the
     /// configuration of a factor() call.
     rank: Option<usize>,
     /// Numeric factorizations done, and factor() calls served by a kept one.
     pub numeric_factorizations: u64,
+    /// Probes for the redundant rows (every one, the first of a locked set too).
+    pub probes: u64,
     pub reused_factorizations: u64,
     /// Minimum-norm solves and the CG iterations they took.
     pub solves: u64,
@@ -301,6 +302,7 @@ impl SparseSchur {
     /// factorization of the full S) and builds the pattern of the kept rows.
     fn probe(&mut self, jac: &Jacobian, inv_mass: &[f64]) -> Result<(), SolverError> {
         let m = self.sig_rows;
+        self.probes += 1;
         self.full.fill(jac, inv_mass)?;
         self.full.scale_to_unit_diagonal(&mut self.probe_scale);
         self.full.factor(&mut self.probe_l, REJECTING)?;
@@ -415,21 +417,22 @@ impl SparseSchur {
     /// to roundoff except for the few ill-conditioned directions, which CG
     /// resolves in a few more steps. Leaves lambda in `self.lam`,
     /// g = M^-1 A^T lambda in `self.g`, the true final residual rhs - A g in
-    /// `self.res` (rhs kept in `rhs2`), and returns max |residual| / max |rhs|.
+    /// `self.res` (rhs kept in `rhs2`), and returns max |residual| / max |rhs|
+    /// and whether the iteration stopped short of its limit `MAX_REFINE`.
     ///
     /// `projected`: with P = R^-1 S R^-1 the iterates stay in range(S) even when
     /// the rhs has a component along null(S) (inconsistent); CG then converges
     /// to the least-squares, minimum-norm solution. With P = R^-1 such a
     /// component is amplified by 1 / delta and has to be detected (the true
     /// residual stays large) and the solve redone.
-    fn pcg(&mut self, jac: &Jacobian, inv_mass: &[f64], projected: bool) -> f64 {
+    fn pcg(&mut self, jac: &Jacobian, inv_mass: &[f64], projected: bool) -> (f64, bool) {
         self.rhs2.copy_from_slice(&self.res);
         let rmax = self.rhs2.iter().fold(0.0f64, |a, v| a.max(v.abs()));
         if rmax == 0.0 {
             self.lam.fill(0.0);
             self.g.fill(0.0);
             self.last_iterations = 0;
-            return 0.0;
+            return (0.0, true);
         }
         self.lam.fill(0.0);
         self.g.fill(0.0);
@@ -437,6 +440,7 @@ impl SparseSchur {
         self.p.copy_from_slice(&self.dl);
         let mut rz = dot(&self.res, &self.dl);
         let (mut it, mut dprev, mut gprev) = (0, f64::INFINITY, 0.0f64);
+        let mut at_limit = false;
         while rz > 0.0 {
             it += 1;
             // h = M^-1 A^T p, q = A h = S p
@@ -477,8 +481,11 @@ impl SparseSchur {
             if dmax <= REFINE_TOL * gmax
                 || (it >= 2 && rho < 0.5 && dmax * rho / (1.0 - rho) <= REFINE_TOL * gmax)
                 || (it >= 2 && rho >= 0.5 && dmax <= ROUNDOFF_FLOOR * gmax)
-                || it >= MAX_REFINE
             {
+                break;
+            }
+            if it >= MAX_REFINE {
+                at_limit = true;
                 break;
             }
             self.precondition(projected);
@@ -495,15 +502,19 @@ impl SparseSchur {
         for (r, b) in self.res.iter_mut().zip(&self.rhs2) {
             *r = b - *r;
         }
-        self.res.iter().fold(0.0f64, |a, v| a.max(v.abs())) / rmax
+        (
+            self.res.iter().fold(0.0f64, |a, v| a.max(v.abs())) / rmax,
+            !at_limit,
+        )
     }
 
     /// Projected iterated regularization (Richardson with P = R^-1 S R^-1) on
     /// S lambda = rhs, for right-hand sides with a component along null(S):
     /// no step length is computed from the data, so roundoff along null(S)
     /// cannot blow up; each step contracts the error by 1 - (s / (s + delta))^2.
-    /// Same inputs and outputs as `pcg`, lambda aside (not minimum-norm).
-    fn richardson(&mut self, jac: &Jacobian, inv_mass: &[f64]) {
+    /// Same inputs and outputs as `pcg`, lambda aside (not minimum-norm);
+    /// returns whether it met its tolerance within `MAX_REFINE` steps.
+    fn richardson(&mut self, jac: &Jacobian, inv_mass: &[f64]) -> bool {
         self.rhs2.copy_from_slice(&self.res);
         self.lam.fill(0.0);
         self.g.fill(0.0);
@@ -529,17 +540,26 @@ impl SparseSchur {
                 || (it >= 2 && rho < 0.5 && dmax * rho / (1.0 - rho) <= REFINE_TOL * gmax)
                 || (it >= 2 && rho >= 0.5 && dmax <= ROUNDOFF_FLOOR * gmax)
             {
-                break;
+                return true;
             }
         }
+        false
     }
 
     /// Solves S lambda = rhs (rhs in `self.res`): g and lambda on return,
-    /// lambda minimum-norm when the active slot is the regularized one.
-    fn solve(&mut self, jac: &Jacobian, inv_mass: &[f64], may_be_inconsistent: bool) {
+    /// lambda minimum-norm when the active slot is the regularized one. A
+    /// refactorization it needs and cannot make is an error; what it did is
+    /// the report.
+    fn solve(
+        &mut self,
+        jac: &Jacobian,
+        inv_mass: &[f64],
+        may_be_inconsistent: bool,
+    ) -> Result<SolveReport, SolverError> {
         self.rhs_keep.copy_from_slice(&self.res);
         let projected = self.slots[self.active].kind == SlotKind::Regularized;
-        let mut rel_res = self.pcg(jac, inv_mass, projected);
+        let mut report = SolveReport::default();
+        let (mut rel_res, mut converged) = self.pcg(jac, inv_mass, projected);
         self.total_iterations = self.last_iterations;
         self.solves += 1;
         self.cg_iterations += self.last_iterations as u64;
@@ -566,45 +586,59 @@ impl SparseSchur {
         // the accuracy a fresh factorization gives in two iterations.)
         let stalled = self.last_iterations > REUSE_MAX_ITERATIONS;
         if (rel_res > tol || stalled) && slot.age > 0 {
-            if self.refactor(jac, inv_mass, self.active).is_ok() {
-                self.res.copy_from_slice(&self.rhs_keep);
-                rel_res = self.pcg(jac, inv_mass, projected);
-                self.total_iterations += self.last_iterations;
-            }
+            self.refactor(jac, inv_mass, self.active)?;
+            report.refactored = true;
+            self.res.copy_from_slice(&self.rhs_keep);
+            (rel_res, converged) = self.pcg(jac, inv_mass, projected);
+            self.total_iterations += self.last_iterations;
         }
         if rel_res > tol && !projected && self.numeric_factorizations >= self.next_reprobe {
             self.reprobe = true;
             self.reprobes += 1;
-            if self.refactor(jac, inv_mass, self.active).is_ok() {
-                self.res.copy_from_slice(&self.rhs_keep);
-                rel_res = self.pcg(jac, inv_mass, projected);
-                self.total_iterations += self.last_iterations;
-            }
+            report.reprobed = true;
+            self.refactor(jac, inv_mass, self.active)?;
+            self.res.copy_from_slice(&self.rhs_keep);
+            (rel_res, converged) = self.pcg(jac, inv_mass, projected);
+            self.total_iterations += self.last_iterations;
         }
         let slot = &mut self.slots[self.active];
         slot.worst_iterations = slot.worst_iterations.max(self.last_iterations);
+        report.iterations = self.total_iterations;
         if rel_res <= tol {
-            return;
+            report.residual_rel = rel_res;
+            // (a finite residual tolerance met is convergence whatever the
+            // iteration count; position corrections, checked by the
+            // projection on every row, only by their iteration)
+            report.converged = converged || tol.is_finite();
+            return Ok(report);
         }
         // The rhs has a component along null(S) (or CG stalled): the
         // least-squares answer needs the regularized factorization. g by the
         // robust projected iteration, then lambda = S^+ (A g), a consistent rhs,
         // by CG for the minimum-norm multipliers (g kept from the first).
         self.inconsistent_solves += 1;
+        report.least_squares = true;
         let back_to = self.active;
-        if !projected && self.refactor(jac, inv_mass, REGULARIZED_SLOT).is_err() {
-            self.active = back_to;
-            return;
+        if !projected {
+            let made = self.refactor(jac, inv_mass, REGULARIZED_SLOT);
+            if made.is_err() {
+                self.active = back_to;
+            }
+            made?;
         }
         self.res.copy_from_slice(&self.rhs_keep);
-        self.richardson(jac, inv_mass);
+        let g_converged = self.richardson(jac, inv_mass);
         self.total_iterations += self.last_iterations;
         self.g_keep.copy_from_slice(&self.g);
         jac.mul(&self.g_keep, &mut self.res);
-        self.pcg(jac, inv_mass, true);
+        let (_, lam_converged) = self.pcg(jac, inv_mass, true);
         self.total_iterations += self.last_iterations;
         std::mem::swap(&mut self.g, &mut self.g_keep);
         self.active = back_to;
+        report.iterations = self.total_iterations;
+        report.residual_rel = rel_res;
+        report.converged = g_converged && lam_converged;
+        Ok(report)
     }
 }
 
@@ -904,7 +938,12 @@ impl ConstraintSolver for SparseSchur {
         "sparse"
     }
 
-    fn factor(&mut self, jac: &Jacobian, inv_mass: &[f64]) -> Result<(), SolverError> {
+    fn factor(
+        &mut self,
+        jac: &Jacobian,
+        inv_mass: &[f64],
+        mode: SolveMode,
+    ) -> Result<FactorReport, SolverError> {
         if !self.same_structure(jac) {
             self.setup(jac)?;
         } else if jac.structure_id != self.sig_id {
@@ -920,7 +959,8 @@ impl ConstraintSolver for SparseSchur {
         // Reuse a kept factorization of the wanted kind for this mass matrix
         // while it still preconditions well; otherwise refactor into its slot
         // (or the least recently made one of that kind).
-        let candidates: &[usize] = if self.min_norm {
+        let min_norm = mode == SolveMode::MinNorm;
+        let candidates: &[usize] = if min_norm {
             &[REGULARIZED_SLOT]
         } else {
             &[0, 1]
@@ -948,11 +988,11 @@ impl ConstraintSolver for SparseSchur {
             if slot.worst_iterations <= REUSE_MAX_ITERATIONS && near {
                 self.active = k;
                 self.reused_factorizations += 1;
-                return Ok(());
+                return Ok(FactorReport::default());
             }
         }
         let k = matching.unwrap_or_else(|| {
-            if self.min_norm {
+            if min_norm {
                 REGULARIZED_SLOT
             } else if self.active < REGULARIZED_SLOT {
                 1 - self.active
@@ -960,16 +1000,16 @@ impl ConstraintSolver for SparseSchur {
                 0
             }
         });
-        self.refactor(jac, inv_mass, k)
+        let probes = self.probes;
+        self.refactor(jac, inv_mass, k)?;
+        Ok(FactorReport {
+            fresh: true,
+            probed: self.probes != probes,
+        })
     }
 
-    fn set_min_norm(&mut self, on: bool) -> bool {
-        self.min_norm = on;
+    fn distinguishes_modes(&self) -> bool {
         true
-    }
-
-    fn is_min_norm(&self) -> bool {
-        self.min_norm
     }
 
     fn kept_rows(&self) -> Option<&[usize]> {
@@ -984,25 +1024,26 @@ impl ConstraintSolver for SparseSchur {
         c: &[f64],
         a: &mut [f64],
         lambda: &mut [f64],
-    ) {
+    ) -> Result<SolveReport, SolverError> {
         let n = q.len();
         // a0 = M^-1 Q; lambda = S^+ (-c - A a0); a = a0 + M^-1 A^T lambda.
         for i in 0..n {
             a[i] = q[i] * inv_mass[i];
         }
         if jac.nrows == 0 {
-            return;
+            return Ok(SolveReport::DIRECT);
         }
         jac.mul(a, &mut self.res);
         for (i, r) in self.res.iter_mut().enumerate() {
             *r = -c.get(i).copied().unwrap_or(0.0) - *r;
         }
-        self.solve(jac, inv_mass, false);
+        let report = self.solve(jac, inv_mass, false)?;
         for i in 0..n {
             a[i] += self.g[i];
         }
         let k = lambda.len().min(self.lam.len());
         lambda[..k].copy_from_slice(&self.lam[..k]);
+        Ok(report)
     }
 
     fn correction(
@@ -1012,17 +1053,18 @@ impl ConstraintSolver for SparseSchur {
         r: &[f64],
         dx: &mut [f64],
         mu: &mut [f64],
-    ) {
+    ) -> Result<SolveReport, SolverError> {
         if jac.nrows == 0 {
             dx.fill(0.0);
             mu.fill(0.0);
-            return;
+            return Ok(SolveReport::DIRECT);
         }
         self.res.copy_from_slice(&r[..jac.nrows]);
-        self.solve(jac, inv_mass, true);
+        let report = self.solve(jac, inv_mass, true)?;
         dx.copy_from_slice(&self.g[..dx.len()]);
         let k = mu.len().min(self.lam.len());
         mu[..k].copy_from_slice(&self.lam[..k]);
+        Ok(report)
     }
 
     fn rank(&self) -> Option<usize> {

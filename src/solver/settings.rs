@@ -1,0 +1,189 @@
+//! Every numeric policy of the stepping loop: tolerances, iteration limits and
+//! the thresholds of its fallbacks, each with its default and what it means.
+//! A model file may override any of them in a `[solver]` table (keys as the
+//! field names below; an unknown key is rejected by name). The simulator takes
+//! them from [`crate::solver::Model::solver`] and passes them explicitly to
+//! each stage.
+
+use serde::{Deserialize, Serialize};
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct SolverSettings {
+    // --- projection onto the constraint manifold (stage `projection`) ---
+    /// Positions are projected until max |Phi| is at most this (m).
+    pub projection_tol_m: f64,
+    /// Newton iterations of the position projection before it gives up.
+    pub projection_max_iterations: usize,
+    /// A projection that ends within this multiple of `projection_tol_m` is
+    /// accepted (the roundoff floor of |Phi| grows with the structure's size).
+    pub projection_accept_factor: f64,
+    /// A basic (redundant rows dropped) Newton iteration whose |Phi| shrinks by
+    /// less than this factor switches to least-squares corrections.
+    pub projection_min_contraction: f64,
+    /// Velocity projection: the residual A V on the dropped rows may exceed
+    /// this multiple of that on the kept rows before the projection is redone
+    /// in least squares (a rank change the probe has not seen).
+    pub velocity_redo_ratio: f64,
+    /// ... and only when it also exceeds this fraction of max|A| max|V|.
+    pub velocity_redo_floor_rel: f64,
+    /// An initial geometry whose residual exceeds this is rejected (m).
+    pub initial_tol_m: f64,
+
+    // --- Newmark integration (stage `integrator`) ---
+    /// Fixed-point iterations of one Newmark step before it counts as not converged.
+    pub newmark_max_iterations: usize,
+    /// The iteration has converged when the estimated error of the
+    /// accelerations is at most this, relative to the largest acceleration ...
+    pub newmark_tol_rel: f64,
+    /// ... or when the position error it causes, h^2/4 |da|, is at most this (m).
+    pub newmark_tol_position_m: f64,
+    /// Safety factor on the contraction rate rho estimated from one ratio of
+    /// successive changes: error <= safety rho / (1 - rho) |change|.
+    pub newmark_rho_safety: f64,
+    /// The rate estimate is used only below this rho (else error = change).
+    pub newmark_rho_max: f64,
+    /// A change at least this fraction of the previous (or of the best so
+    /// far) counts as a stall ...
+    pub newmark_stall_ratio: f64,
+    /// ... and this many in a row switch to least-squares solves, then to the
+    /// friction direction of the step start.
+    pub newmark_stall_count: usize,
+    /// Smallest sub-step, as a fraction of the requested step, tried before a
+    /// non-converging Newmark iteration is reported.
+    pub min_substep_fraction: f64,
+    /// Sub-steps and latch events one step may take before it is reported.
+    pub max_substeps: usize,
+    /// A step is complete when less than this fraction of it remains.
+    pub step_end_rel: f64,
+    /// Fixed-point iterations of the accelerations with cable inertia where a
+    /// step starts from scratch (the start, a latch, a command change) ...
+    pub consistent_max_iterations: usize,
+    /// ... until they change by at most this, relative to the largest.
+    pub consistent_tol_rel: f64,
+
+    // --- latch events (stage `events`) ---
+    /// Sleeves within this distance of their design length latch (m).
+    pub lock_tol_m: f64,
+    /// The latch time is refined until |gap| is at most this (m).
+    pub root_tol_m: f64,
+    /// Illinois iterations of the latch root search; a search that ends
+    /// without |gap| <= `lock_tol_m` is an error.
+    pub root_max_iterations: usize,
+    /// The root search also stops when its bracket is this short, relative
+    /// to the step.
+    pub root_bracket_rel: f64,
+    /// Golden-section and bisection iterations on the step's interpolant
+    /// (each shrinks the interval by 0.618 or 0.5).
+    pub dip_search_iterations: usize,
+
+    // --- mobility (the rank decision itself is `crate::solver::rank`) ---
+    /// Largest model (coordinates) whose mobility is counted by a dense SVD
+    /// when the backend reveals no rank.
+    pub rank_check_max_coords: usize,
+}
+
+impl Default for SolverSettings {
+    fn default() -> Self {
+        SolverSettings {
+            projection_tol_m: 1e-12,
+            projection_max_iterations: 25,
+            projection_accept_factor: 1e3,
+            projection_min_contraction: 0.25,
+            velocity_redo_ratio: 100.0,
+            velocity_redo_floor_rel: 1e-10,
+            initial_tol_m: 1e-6,
+            newmark_max_iterations: 60,
+            newmark_tol_rel: 1e-12,
+            newmark_tol_position_m: 1e-14,
+            newmark_rho_safety: 20.0,
+            newmark_rho_max: 0.1,
+            newmark_stall_ratio: 0.9,
+            newmark_stall_count: 4,
+            min_substep_fraction: 1.0 / 1024.0,
+            max_substeps: 10_000,
+            step_end_rel: 1e-12,
+            consistent_max_iterations: 20,
+            consistent_tol_rel: 1e-13,
+            lock_tol_m: 1e-9,
+            root_tol_m: 1e-13,
+            root_max_iterations: 100,
+            root_bracket_rel: 1e-15,
+            dip_search_iterations: 60,
+            rank_check_max_coords: 1500,
+        }
+    }
+}
+
+impl SolverSettings {
+    /// Elements within this distance of their lock at a latch event latch
+    /// together (m): the latch tolerance, or ten root tolerances where the
+    /// root search is asked for less accuracy than that.
+    pub fn latch_tol_m(&self) -> f64 {
+        self.lock_tol_m.max(10.0 * self.root_tol_m)
+    }
+
+    /// Checks that every number is usable: finite and positive tolerances,
+    /// iteration limits of at least 1, fractions below 1. The message names
+    /// the key.
+    pub fn validate(&self) -> Result<(), String> {
+        let positive = [
+            ("projection_tol_m", self.projection_tol_m),
+            ("projection_accept_factor", self.projection_accept_factor),
+            (
+                "projection_min_contraction",
+                self.projection_min_contraction,
+            ),
+            ("velocity_redo_ratio", self.velocity_redo_ratio),
+            ("velocity_redo_floor_rel", self.velocity_redo_floor_rel),
+            ("initial_tol_m", self.initial_tol_m),
+            ("newmark_tol_rel", self.newmark_tol_rel),
+            ("newmark_tol_position_m", self.newmark_tol_position_m),
+            ("newmark_rho_safety", self.newmark_rho_safety),
+            ("newmark_rho_max", self.newmark_rho_max),
+            ("newmark_stall_ratio", self.newmark_stall_ratio),
+            ("min_substep_fraction", self.min_substep_fraction),
+            ("step_end_rel", self.step_end_rel),
+            ("consistent_tol_rel", self.consistent_tol_rel),
+            ("lock_tol_m", self.lock_tol_m),
+            ("root_tol_m", self.root_tol_m),
+            ("root_bracket_rel", self.root_bracket_rel),
+        ];
+        for (key, v) in positive {
+            if !(v.is_finite() && v > 0.0) {
+                return Err(format!(
+                    "[solver] {key} = {v}: it must be a finite number > 0"
+                ));
+            }
+        }
+        for (key, v) in [
+            (
+                "projection_min_contraction",
+                self.projection_min_contraction,
+            ),
+            ("newmark_rho_max", self.newmark_rho_max),
+            ("newmark_stall_ratio", self.newmark_stall_ratio),
+            ("min_substep_fraction", self.min_substep_fraction),
+            ("step_end_rel", self.step_end_rel),
+        ] {
+            if v >= 1.0 {
+                return Err(format!("[solver] {key} = {v}: it must be below 1"));
+            }
+        }
+        let counts = [
+            ("projection_max_iterations", self.projection_max_iterations),
+            ("newmark_max_iterations", self.newmark_max_iterations),
+            ("newmark_stall_count", self.newmark_stall_count),
+            ("max_substeps", self.max_substeps),
+            ("consistent_max_iterations", self.consistent_max_iterations),
+            ("root_max_iterations", self.root_max_iterations),
+            ("dip_search_iterations", self.dip_search_iterations),
+        ];
+        for (key, v) in counts {
+            if v == 0 {
+                return Err(format!("[solver] {key} = 0: it must be at least 1"));
+            }
+        }
+        Ok(())
+    }
+}

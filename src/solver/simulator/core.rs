@@ -1,0 +1,199 @@
+//! The work state of a step: buffers reused across steps, the constraint
+//! Jacobian and the backend's factorization, the trial state a stage is
+//! computing, and the counters. Every factorization and solve of the stepping
+//! loop goes through `Core::factor`, `Core::solve_accelerations` and
+//! `Core::correction`, which take the solve mode as an argument and book what
+//! the backend reports in `stats`.
+
+use crate::solver::cable::CableEval;
+use crate::solver::jacobian::Jacobian;
+use crate::solver::linsolve::{ConstraintSolver, FactorReport, SolveMode, SolveReport};
+use crate::solver::model::Model;
+use crate::solver::stats::SolverStats;
+use crate::solver::SolverError;
+
+/// Buffers and the factorization, reused across steps.
+pub(super) struct Core {
+    pub jac: Jacobian,
+    pub solver: Box<dyn ConstraintSolver>,
+    pub q: Vec<f64>,
+    pub c: Vec<f64>,
+    pub r: Vec<f64>,
+    pub dx: Vec<f64>,
+    pub mu: Vec<f64>,
+    // trial state of the step being computed
+    pub x: Vec<f64>,
+    pub v: Vec<f64>,
+    pub a: Vec<f64>,
+    pub a_guess: Vec<f64>,
+    pub lambda: Vec<f64>,
+    pub cables: Vec<CableEval>,
+    pub violation_m: f64,
+    /// Set (to the step length) while a Newmark step treats damping implicitly:
+    /// the solves then use the effective inverse masses 1 / (m + h/2 c).
+    pub implicit_h: Option<f64>,
+    pub inv_mass_eff: Vec<f64>,
+    pub v_star: Vec<f64>,
+    /// Per cable, the pulley sliding speeds at the step start, and whether the
+    /// current iteration takes the friction direction from them.
+    pub friction_sliding: Vec<Vec<f64>>,
+    pub lagged_friction: bool,
+    /// Accelerations at the start of the last accepted step, and its length (None
+    /// after a latch or a reset: no extrapolation across a velocity jump).
+    pub a_prev: Vec<f64>,
+    pub prev_h: Option<f64>,
+    pub a_prev2: Vec<f64>,
+    pub prev_h2: Option<f64>,
+    /// The backend that computes minimum-norm multipliers on request
+    /// (`Simulator::min_norm_multipliers`), made at the first request.
+    pub aux_solver: Option<Box<dyn ConstraintSolver>>,
+    /// What the stepping loop did (the aux solver's work is not counted).
+    pub stats: SolverStats,
+}
+
+impl Core {
+    pub fn new(model: &Model, locked: &[bool], solver: Box<dyn ConstraintSolver>) -> Core {
+        let n = model.n_coords();
+        let jac = Jacobian::pattern(model, locked);
+        let m = jac.nrows;
+        Core {
+            jac,
+            solver,
+            q: vec![0.0; n],
+            c: vec![0.0; m],
+            r: vec![0.0; m],
+            dx: vec![0.0; n],
+            mu: vec![0.0; m],
+            x: model.x0.clone(),
+            v: vec![0.0; n],
+            a: vec![0.0; n],
+            a_guess: vec![0.0; n],
+            lambda: vec![0.0; m],
+            cables: model.cables.iter().map(CableEval::for_cable).collect(),
+            violation_m: 0.0,
+            implicit_h: None,
+            inv_mass_eff: model.inv_mass.clone(),
+            v_star: vec![0.0; n],
+            friction_sliding: model
+                .cables
+                .iter()
+                .map(|c| vec![0.0; c.path.len().saturating_sub(2)])
+                .collect(),
+            lagged_friction: false,
+            a_prev: vec![0.0; n],
+            prev_h: None,
+            a_prev2: vec![0.0; n],
+            prev_h2: None,
+            aux_solver: None,
+            stats: SolverStats::default(),
+        }
+    }
+
+    /// The Jacobian pattern (and row-sized buffers) of a new locked set.
+    pub fn set_pattern(&mut self, model: &Model, locked: &[bool]) {
+        self.jac = Jacobian::pattern(model, locked);
+        let m = self.jac.nrows;
+        for b in [&mut self.c, &mut self.r, &mut self.mu, &mut self.lambda] {
+            b.resize(m, 0.0);
+        }
+    }
+
+    /// The inverse masses the solves use: M^-1, or (M + h/2 C)^-1 inside an
+    /// implicitly damped Newmark step.
+    fn weights<'a>(implicit_h: Option<f64>, eff: &'a [f64], model: &'a Model) -> &'a [f64] {
+        if implicit_h.is_some() {
+            eff
+        } else {
+            &model.inv_mass
+        }
+    }
+
+    /// Jacobian at the trial x, and a factorization for solves in `mode`.
+    pub fn factor(&mut self, model: &Model, mode: SolveMode) -> Result<(), SolverError> {
+        self.jac.fill(model, &self.x);
+        let w = Self::weights(self.implicit_h, &self.inv_mass_eff, model);
+        let report = self.solver.factor(&self.jac, w, mode)?;
+        self.book_factor(report);
+        Ok(())
+    }
+
+    fn book_factor(&mut self, r: FactorReport) {
+        let s = &mut self.stats;
+        if r.fresh {
+            s.factorizations += 1;
+        } else {
+            s.factorizations_reused += 1;
+        }
+        s.probes += u64::from(r.probed);
+    }
+
+    fn book_solve(&mut self, r: SolveReport) {
+        let s = &mut self.stats;
+        s.solves += 1;
+        s.solve_iterations += r.iterations as u64;
+        let f = &mut s.fallbacks;
+        f.solve_refactored += u64::from(r.refactored);
+        f.solve_reprobed += u64::from(r.reprobed);
+        f.solve_least_squares += u64::from(r.least_squares);
+        f.solve_unconverged += u64::from(!r.converged);
+    }
+
+    /// Constrained accelerations `a`, multipliers `lambda` for the applied
+    /// forces `q` and the convective term `c`, with the current factorization.
+    pub fn solve_accelerations(&mut self, model: &Model) -> Result<(), SolverError> {
+        let w = Self::weights(self.implicit_h, &self.inv_mass_eff, model);
+        let report = self.solver.accelerations(
+            &self.jac,
+            w,
+            &self.q,
+            &self.c,
+            &mut self.a,
+            &mut self.lambda,
+        )?;
+        self.book_solve(report);
+        Ok(())
+    }
+
+    /// The mass-orthogonal correction dX = M^-1 A^T S^+ r of r in `r`
+    /// (multipliers into `mu`), with the current factorization.
+    pub fn correction(&mut self, model: &Model) -> Result<(), SolverError> {
+        let report = self.solver.correction(
+            &self.jac,
+            &model.inv_mass,
+            &self.r,
+            &mut self.dx,
+            &mut self.mu,
+        )?;
+        self.book_solve(report);
+        Ok(())
+    }
+
+    pub fn save_trial(&self, to: &mut TrialCopy) {
+        to.x.clone_from(&self.x);
+        to.v.clone_from(&self.v);
+        to.a.clone_from(&self.a);
+        to.lambda.clone_from(&self.lambda);
+        to.cables.clone_from(&self.cables);
+        to.violation_m = self.violation_m;
+    }
+
+    pub fn restore_trial(&mut self, from: &TrialCopy) {
+        self.x.clone_from(&from.x);
+        self.v.clone_from(&from.v);
+        self.a.clone_from(&from.a);
+        self.lambda.clone_from(&from.lambda);
+        self.cables.clone_from(&from.cables);
+        self.violation_m = from.violation_m;
+    }
+}
+
+/// A copy of a trial step, to come back to after trials of other lengths.
+#[derive(Default)]
+pub(super) struct TrialCopy {
+    x: Vec<f64>,
+    v: Vec<f64>,
+    a: Vec<f64>,
+    lambda: Vec<f64>,
+    cables: Vec<CableEval>,
+    violation_m: f64,
+}

@@ -1,0 +1,365 @@
+//! The stepping loop, as a pipeline of stages (one module each):
+//!
+//! ```text
+//! step(dt) ─┬─ command changed? ── integrator::consistent_accelerations (restart)
+//!           └─ per sub-step h:
+//!                integrator::newmark ──── projection (positions, velocities)
+//!                events::first_crossing ─ none ──────────────── ledger::accept
+//!                        │ a crossing or a touch
+//!                events::locate_latch (root of the step map) ── ledger::accept
+//!                impact::latch (velocity jump, impulses, mobility)
+//! ```
+//!
+//! `core` holds the buffers, the Jacobian, the backend and the counters;
+//! every numeric policy comes from the model's [`SolverSettings`], passed to
+//! each stage. Cable commands are piecewise constant with jumps at step
+//! starts: a step that starts at a change starts from the accelerations under
+//! the new command.
+
+mod core;
+mod events;
+mod impact;
+mod integrator;
+mod ledger;
+mod projection;
+
+use self::core::{Core, TrialCopy};
+use self::events::gap;
+use super::cable::CableEval;
+use super::jacobian::Jacobian;
+use super::linsolve::{SolveMode, SolverKind};
+use super::model::Model;
+use super::settings::SolverSettings;
+use super::state::{Energy, State};
+use super::stats::SolverStats;
+use super::SolverError;
+
+/// How to run a model: the backend. Every numeric setting is the model's
+/// ([`Model::solver`], from the model file's `[solver]` table).
+#[derive(Clone, Debug)]
+pub struct Options {
+    pub solver: SolverKind,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            solver: SolverKind::Sparse,
+        }
+    }
+}
+
+/// The simulator: an immutable model, the state it advances, and the solver.
+pub struct Simulator {
+    model: Model,
+    state: State,
+    core: Core,
+    opts: Options,
+    /// The model's settings (a copy, passed to every stage).
+    settings: SolverSettings,
+    /// A cable command changed since the state's accelerations were computed.
+    command_changed: bool,
+    /// The full-step trial while a dip of a sleeve's gap is checked.
+    trial_copy: TrialCopy,
+    /// Positions interpolated inside a step (events), and at a sub-step's
+    /// start (the missed-latch check).
+    interp: Vec<f64>,
+    x_start: Vec<f64>,
+}
+
+impl Simulator {
+    pub fn new(model: Model, opts: Options) -> Result<Simulator, SolverError> {
+        let settings = model.solver.clone();
+        settings.validate().map_err(SolverError::Invalid)?;
+        let locked = vec![false; model.elements.len()];
+        let core = Core::new(&model, &locked, opts.solver.make());
+        let n = model.n_coords();
+        let mut sim = Simulator {
+            state: blank_state(&model),
+            model,
+            core,
+            opts,
+            settings,
+            command_changed: false,
+            trial_copy: TrialCopy::default(),
+            interp: vec![0.0; n],
+            x_start: vec![0.0; n],
+        };
+        sim.initialize()?;
+        Ok(sim)
+    }
+
+    /// Puts the state at t = 0: checks the initial geometry, settles it to
+    /// roundoff, latches elements that start at their lock, and computes the
+    /// consistent initial accelerations and mobility.
+    fn initialize(&mut self) -> Result<(), SolverError> {
+        let (model, st) = (&self.model, &self.settings);
+        let mut state = blank_state(model);
+        for &e in &model.locks {
+            state.locked[e] = gap(model, e, &model.x0).abs() <= st.lock_tol_m;
+        }
+        let core = &mut self.core;
+        core.prev_h = None;
+        core.set_pattern(model, &state.locked);
+        core.x.copy_from_slice(&model.x0);
+        if let Some((e, row, residual_m)) = model.initial_violation(st.initial_tol_m) {
+            let el = &model.elements[e];
+            return Err(SolverError::InitialViolation {
+                element: el.name().to_string(),
+                kind: el.kind(),
+                row,
+                residual_m,
+                limit_m: st.initial_tol_m,
+            });
+        }
+        core.project_positions(model, st, SolveMode::Basic)?;
+        core.v.fill(0.0);
+        core.factor(model, SolveMode::Basic)?;
+        core.a_guess.fill(0.0);
+        core.consistent_accelerations(model, &state.cable_tension_cmd_n, st)?;
+        state.x.copy_from_slice(&core.x);
+        state.a.copy_from_slice(&core.a);
+        state.lambda.clone_from(&core.lambda);
+        state.cables.clone_from(&core.cables);
+        state.max_violation_m = core.violation_m;
+        self.state = state;
+        self.state.mechanisms = self.mechanisms_now();
+        self.state.deployed = !self.model.locks.is_empty() && self.all_locked();
+        self.command_changed = false;
+        Ok(())
+    }
+
+    /// Back to the initial state (same model, the model's cable tensions).
+    /// The solver's counters go on counting.
+    pub fn reset(&mut self) -> Result<(), SolverError> {
+        self.initialize()
+    }
+
+    pub fn model(&self) -> &Model {
+        &self.model
+    }
+    pub fn state(&self) -> &State {
+        &self.state
+    }
+    pub fn options(&self) -> &Options {
+        &self.opts
+    }
+    pub fn settings(&self) -> &SolverSettings {
+        &self.settings
+    }
+    pub fn jacobian(&self) -> &Jacobian {
+        &self.core.jac
+    }
+    /// Factorization requests so far (made or served by a kept one).
+    pub fn factorizations(&self) -> u64 {
+        self.core.stats.factorizations + self.core.stats.factorizations_reused
+    }
+    /// What the solver did so far (since the simulator was made).
+    pub fn solver_stats(&self) -> &SolverStats {
+        &self.core.stats
+    }
+    /// The backend's own counters, for benchmarks.
+    pub fn solver_diagnostics(&self) -> String {
+        self.core.solver.diagnostics()
+    }
+
+    /// The state's multipliers with the minimum-norm split among redundant
+    /// rows (member forces of a statically indeterminate latched truss, e.g.
+    /// sleeves that latched together): solver-independent. The sparse
+    /// backend's `State::lambda` gives the whole share to the rows it keeps
+    /// (same joint forces); this costs one least-squares solve there and
+    /// nothing with the dense backend, whose multipliers are minimum-norm.
+    pub fn min_norm_multipliers(&mut self) -> Result<Vec<f64>, SolverError> {
+        let (model, core, s) = (&self.model, &mut self.core, &self.state);
+        if core.multipliers_in_mode(model, self.opts.solver, &s.x, &s.lambda, SolveMode::MinNorm)? {
+            Ok(core.mu.clone())
+        } else {
+            Ok(s.lambda.clone())
+        }
+    }
+
+    /// Sets a cable's motor-end tension from the next step on.
+    pub fn set_cable_tension(&mut self, cable: usize, tension_n: f64) -> Result<(), SolverError> {
+        let c = self
+            .model
+            .cables
+            .get(cable)
+            .ok_or_else(|| SolverError::Invalid(format!("no cable with index {cable}")))?;
+        if !(tension_n.is_finite() && tension_n >= 0.0 && tension_n <= c.max_tension_n) {
+            return Err(SolverError::Invalid(format!(
+                "tension {tension_n} N for cable `{}` must be finite, >= 0 and <= {} N",
+                c.name, c.max_tension_n
+            )));
+        }
+        if self.state.cable_tension_cmd_n[cable] != tension_n {
+            self.state.cable_tension_cmd_n[cable] = tension_n;
+            self.command_changed = true;
+        }
+        Ok(())
+    }
+
+    /// Accelerations (and multipliers, cable tensions) of the state under the
+    /// current commands. The tension is piecewise constant in time with its
+    /// jumps at step starts, so a step that starts at a command change must
+    /// start from A(t_n+) under the new command; Newmark from the old A_n
+    /// would apply half the change over that step (the average-acceleration
+    /// rule takes a force jump for a ramp).
+    fn restart_accelerations(&mut self) -> Result<(), SolverError> {
+        let (model, core) = (&self.model, &mut self.core);
+        core.x.copy_from_slice(&self.state.x);
+        core.v.copy_from_slice(&self.state.v);
+        core.a_guess.copy_from_slice(&self.state.a);
+        core.factor(model, SolveMode::Basic)?;
+        core.consistent_accelerations(model, &self.state.cable_tension_cmd_n, &self.settings)?;
+        // The Newmark predictor extrapolates the accelerations of the last
+        // steps: shift them by the jump, which the command makes persist.
+        for i in 0..core.a.len() {
+            let jump = core.a[i] - self.state.a[i];
+            core.a_prev[i] += jump;
+            core.a_prev2[i] += jump;
+        }
+        let s = &mut self.state;
+        s.a.copy_from_slice(&core.a);
+        s.lambda.clone_from(&core.lambda);
+        for (o, n) in s.cables.iter_mut().zip(&core.cables) {
+            o.clone_from(n);
+        }
+        self.command_changed = false;
+        Ok(())
+    }
+
+    fn all_locked(&self) -> bool {
+        self.model.locks.iter().all(|&e| self.state.locked[e])
+    }
+
+    /// Mechanisms 3n - rank A of the current constraint set: the rank the
+    /// solver reveals (dense: SVD; sparse: the pivots of its redundant-row probe
+    /// at the last factorization, equal to the SVD rank on the bundled models:
+    /// tested), else a dense SVD up to `rank_check_max_coords`, else the
+    /// Maxwell lower bound 3n - rows.
+    fn mechanisms_now(&self) -> usize {
+        let n = self.model.n_coords();
+        let solver = &self.core.solver;
+        let rank = match solver.rank().or_else(|| solver.pivot_rank()) {
+            Some(r) => r,
+            None if n <= self.settings.rank_check_max_coords => {
+                super::rank::of_jacobian(&self.core.jac)
+            }
+            None => return n.saturating_sub(self.core.jac.nrows),
+        };
+        // (a pivot rank can exceed n on a nearly singular giant truss: see
+        // pivot_rank; the count is then a lower bound)
+        n.saturating_sub(rank)
+    }
+
+    /// Advances the state by exactly `dt` seconds, latching elements on the
+    /// way. Returns the number of latch events in this step.
+    pub fn step(&mut self, dt: f64) -> Result<usize, SolverError> {
+        if !(dt.is_finite() && dt > 0.0) {
+            return Err(SolverError::Invalid(format!(
+                "time step {dt} s must be positive and finite"
+            )));
+        }
+        if self.command_changed {
+            self.restart_accelerations()?;
+        }
+        let t_end = self.state.t_s + dt;
+        let mut events = 0;
+        let mut substeps = 0;
+        // Sub-step length: halved when the Newmark iteration does not converge
+        // (near singular configurations), doubled back after each success.
+        let mut h_try = dt;
+        while t_end - self.state.t_s > self.settings.step_end_rel * dt {
+            substeps += 1;
+            if substeps > self.settings.max_substeps + 4 * self.model.locks.len() {
+                return Err(SolverError::Invalid(format!(
+                    "more than {} sub-steps or latch events inside the step ending at t = {t_end:.6} s \
+                     (raise [solver] max_substeps, or use a smaller --dt)",
+                    self.settings.max_substeps
+                )));
+            }
+            let h = h_try.min(t_end - self.state.t_s);
+            let (st, base) = (&self.settings, SolveMode::Basic);
+            match self.core.newmark(&self.model, &self.state, h, st, base) {
+                Err(SolverError::NoConvergence { .. }) if h > dt * st.min_substep_fraction => {
+                    self.core.stats.fallbacks.substep_halvings += 1;
+                    h_try = 0.5 * h;
+                    continue;
+                }
+                other => other?,
+            }
+            events += self.finish_substep(h)?;
+            h_try = (2.0 * h_try).min(dt);
+        }
+        self.state.t_s = t_end.max(self.state.t_s);
+        self.state.steps += 1;
+        self.core.stats.steps += 1;
+        Ok(events)
+    }
+
+    /// The trial sub-step of length h is computed: accept it, or the part of
+    /// it up to the first latch (then latch). Elements whose interpolated dip
+    /// to their lock the step map did not confirm (e.g. the ring's radial
+    /// sleeves, whose length is least at the flat state its diagonals latch
+    /// in): the full-step trial is restored and the search goes on without
+    /// them. Returns the latch events.
+    fn finish_substep(&mut self, h: f64) -> Result<usize, SolverError> {
+        let mut not_real: Vec<usize> = Vec::new();
+        loop {
+            let Some((target, s_hi)) = self.first_crossing(h, &not_real) else {
+                self.accept(h);
+                return Ok(0);
+            };
+            if s_hi < 1.0 {
+                self.core.save_trial(&mut self.trial_copy);
+            }
+            match self.locate_latch(target, h, s_hi)? {
+                Some(h_star) => {
+                    self.x_start.copy_from_slice(&self.state.x);
+                    self.accept(h_star);
+                    let latched = self.latch()?;
+                    // Nothing may have passed its lock without latching
+                    // (a target short of its lock goes on in the next sub-step).
+                    let (model, s) = (&self.model, &self.state);
+                    let tol = self.settings.lock_tol_m;
+                    let missed =
+                        events::crossed_unlatched(model, &s.locked, &self.x_start, &s.x, tol, None);
+                    if let Some(e) = missed {
+                        return Err(SolverError::MissedLatch {
+                            element: model.elements[e].name().to_string(),
+                            t_s: s.t_s,
+                            gap_m: gap(model, e, &s.x),
+                        });
+                    }
+                    return Ok(latched);
+                }
+                None => {
+                    self.core.stats.fallbacks.dips_rejected += 1;
+                    self.core.restore_trial(&self.trial_copy);
+                    not_real.push(target);
+                }
+            }
+        }
+    }
+}
+
+fn blank_state(model: &Model) -> State {
+    let n = model.n_coords();
+    State {
+        t_s: 0.0,
+        x: model.x0.clone(),
+        v: vec![0.0; n],
+        a: vec![0.0; n],
+        locked: vec![false; model.elements.len()],
+        cable_tension_cmd_n: model.cables.iter().map(|c| c.tension_n).collect(),
+        cables: model.cables.iter().map(CableEval::for_cable).collect(),
+        lambda: Vec::new(),
+        energy: Energy::default(),
+        locks: Vec::new(),
+        max_violation_m: 0.0,
+        mechanisms: 0,
+        deployed: false,
+        deploy_time_s: None,
+        steps: 0,
+    }
+}

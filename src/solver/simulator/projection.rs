@@ -1,0 +1,162 @@
+//! Stage `projection`: positions and velocities back onto the constraint
+//! manifold by mass-orthogonal corrections (Bayo and Ledesma), so no
+//! constraint drift accumulates, and the minimum-norm multipliers of a state.
+//!
+//! Positions: Newton iterations X <- X - M^-1 A^T S^+ Phi(X) until
+//! max |Phi| <= `projection_tol_m`. Velocities: V <- V - M^-1 A^T S^+ A V,
+//! whose multipliers S^+ A V are the impulses of a velocity jump.
+
+use super::core::Core;
+use crate::solver::linsolve::{SolveMode, SolverKind};
+use crate::solver::model::Model;
+use crate::solver::settings::SolverSettings;
+use crate::solver::SolverError;
+
+impl Core {
+    /// Newton iterations X <- X - M^-1 A^T S^+ Phi(X) until max |Phi| <= tol,
+    /// with solves in `base` mode.
+    ///
+    /// Newton with basic solves converges on the kept rows; where the dropped
+    /// ones are only nearly redundant (e.g. every sleeve just latched at the
+    /// flat deployed state) their residual stalls, and the least-squares
+    /// (minimum-norm) iteration takes over (a counted fallback). A projection
+    /// that ends within `projection_accept_factor` of the tolerance is the
+    /// roundoff floor of a large structure; beyond that it is an error.
+    pub fn project_positions(
+        &mut self,
+        model: &Model,
+        st: &SolverSettings,
+        base: SolveMode,
+    ) -> Result<(), SolverError> {
+        let tol = st.projection_tol_m;
+        let mut mode = base;
+        let mut last = f64::INFINITY;
+        for _ in 0..st.projection_max_iterations {
+            self.jac.residual(model, &self.x, &mut self.r);
+            self.violation_m = self.r.iter().fold(0.0, |m, v| m.max(v.abs()));
+            if self.violation_m <= tol {
+                return Ok(());
+            }
+            if mode == SolveMode::Basic
+                && self.violation_m > st.projection_min_contraction * last
+                && self.solver.distinguishes_modes()
+            {
+                mode = SolveMode::MinNorm;
+                self.stats.fallbacks.projection_min_norm += 1;
+                if self.violation_m > last {
+                    // the last basic correction made things worse: undo it
+                    for (x, d) in self.x.iter_mut().zip(&self.dx) {
+                        *x += d;
+                    }
+                    self.jac.residual(model, &self.x, &mut self.r);
+                    self.violation_m = self.r.iter().fold(0.0, |m, v| m.max(v.abs()));
+                }
+            }
+            last = self.violation_m;
+            self.factor(model, mode)?;
+            self.subtract_correction(model, false)?;
+        }
+        if self.violation_m <= st.projection_accept_factor * tol {
+            return Ok(()); // converged to roundoff of a large structure
+        }
+        Err(SolverError::Projection {
+            violation_m: self.violation_m,
+        })
+    }
+
+    /// V <- V - M^-1 A^T S^+ A V with the current factorization at x, made in
+    /// `mode`. Returns the multipliers in `mu` and A V (before) in `r`.
+    ///
+    /// A V is consistent by construction, so what is left of it is roundoff
+    /// alike on every row, unless the rows a basic solve dropped are not
+    /// redundant any more (a rank change the probe has not seen): then their
+    /// residual stands out (beyond `velocity_redo_ratio` times the kept rows'
+    /// and `velocity_redo_floor_rel` max|A| max|V|) and the projection is
+    /// redone with least squares (a counted fallback). Dropped rows that are
+    /// only nearly redundant leave up to ~5e-12 |A||v| (18-ring near its flat
+    /// state; ~6e-13 on a 180-ring at any time); that is accepted: redoing
+    /// every such step cost the 180-ring 15x.
+    pub fn project_velocities(
+        &mut self,
+        model: &Model,
+        st: &SolverSettings,
+        mode: SolveMode,
+    ) -> Result<(), SolverError> {
+        self.jac.mul(&self.v, &mut self.r);
+        self.subtract_correction(model, true)?;
+        // (`c` is scratch until the accelerations that follow recompute it.)
+        let Some(kept) = self.solver.kept_rows() else {
+            return Ok(());
+        };
+        if mode == SolveMode::MinNorm {
+            return Ok(());
+        }
+        self.jac.mul(&self.v, &mut self.c);
+        let all = self.c.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let on_kept = kept.iter().fold(0.0f64, |m, &i| m.max(self.c[i].abs()));
+        let vmax = self.v.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let amax = self.jac.values.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        if all <= (st.velocity_redo_ratio * on_kept).max(st.velocity_redo_floor_rel * amax * vmax)
+            || !self.solver.distinguishes_modes()
+        {
+            return Ok(());
+        }
+        self.stats.fallbacks.velocity_min_norm += 1;
+        for (v, d) in self.v.iter_mut().zip(&self.dx) {
+            *v += d;
+        }
+        self.factor(model, SolveMode::MinNorm)?;
+        self.subtract_correction(model, true)
+    }
+
+    /// The mass-orthogonal correction dX = M^-1 A^T S^+ r of r in `r`
+    /// (multipliers into `mu`), subtracted from the velocities or the positions.
+    fn subtract_correction(&mut self, model: &Model, velocities: bool) -> Result<(), SolverError> {
+        self.correction(model)?;
+        let target = if velocities { &mut self.v } else { &mut self.x };
+        for (t, d) in target.iter_mut().zip(&self.dx) {
+            *t -= d;
+        }
+        Ok(())
+    }
+
+    /// The multipliers S^+ (A M^-1 A^T lambda) of the state (x, lambda), solved
+    /// in `mode`, into `mu`: the same joint forces A^T lambda, split among
+    /// redundant rows as that mode splits them (least squares for `MinNorm`).
+    /// Returns false (and leaves `mu`) where the backend's multipliers do not
+    /// depend on the mode (they are minimum-norm already).
+    pub fn multipliers_in_mode(
+        &mut self,
+        model: &Model,
+        kind: SolverKind,
+        x: &[f64],
+        lambda: &[f64],
+        mode: SolveMode,
+    ) -> Result<bool, SolverError> {
+        // A second instance of the backend does the solve, so the stepping
+        // solver's kept factorizations, counters and re-probe schedule stay as
+        // they were: the trajectory does not depend on how often this is
+        // called (the node calls it at its publish rate).
+        let aux = self.aux_solver.get_or_insert_with(|| kind.make());
+        if !aux.distinguishes_modes() {
+            return Ok(false);
+        }
+        self.x.copy_from_slice(x);
+        self.jac.fill(model, &self.x);
+        // r = S lambda, consistent by construction
+        self.jac.mul_t(lambda, &mut self.dx);
+        for (d, w) in self.dx.iter_mut().zip(&model.inv_mass) {
+            *d *= w;
+        }
+        self.jac.mul(&self.dx, &mut self.r);
+        aux.factor(&self.jac, &model.inv_mass, mode)?;
+        aux.correction(
+            &self.jac,
+            &model.inv_mass,
+            &self.r,
+            &mut self.dx,
+            &mut self.mu,
+        )?;
+        Ok(true)
+    }
+}

@@ -1,0 +1,112 @@
+//! Counters of what the solver did: steps, sub-steps, Newmark iterations,
+//! factorizations and solves, every fallback by kind, and the latch searches.
+//! `simulate --json` writes them as `solver_stats`, `bench` prints them, the
+//! node logs them at shutdown. A fallback is a give-up that the solver
+//! survives on purpose (the step goes on by another route); a give-up that
+//! would leave a wrong result is a [`crate::solver::SolverError`] instead.
+
+use serde::Serialize;
+
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct SolverStats {
+    /// `Simulator::step` calls completed.
+    pub steps: u64,
+    /// Newmark trials accepted into the state (sub-steps and the parts of a
+    /// step before and after each latch).
+    pub substeps: u64,
+    /// Newmark steps computed (accepted or not: root-search and dip-check
+    /// trials, halved sub-steps).
+    pub newmark_steps: u64,
+    /// Fixed-point iterations over all Newmark steps (each one constrained solve).
+    pub newmark_iterations: u64,
+    /// Numeric factorizations made, and factor requests served by a kept one.
+    pub factorizations: u64,
+    pub factorizations_reused: u64,
+    /// Probes for redundant rows (sparse backend: a rejecting factorization of every row).
+    pub probes: u64,
+    /// Constrained solves (accelerations and corrections) and their iterations
+    /// (conjugate gradients / Richardson; 0 for the dense backend).
+    pub solves: u64,
+    pub solve_iterations: u64,
+    pub fallbacks: Fallbacks,
+    /// Latch root searches started, and the trial steps they computed.
+    pub latch_searches: u64,
+    pub latch_search_steps: u64,
+    /// Sleeves latched.
+    pub latches: u64,
+}
+
+/// Fallbacks by kind (see each field).
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize)]
+pub struct Fallbacks {
+    /// A Newmark iteration did not converge and the sub-step was halved.
+    pub substep_halvings: u64,
+    /// A stalled Newmark iteration restarted with least-squares solves.
+    pub newmark_min_norm: u64,
+    /// A stalled Newmark iteration restarted with the friction direction of the step start.
+    pub newmark_lagged_friction: u64,
+    /// A stalled position projection switched to least-squares corrections.
+    pub projection_min_norm: u64,
+    /// A velocity projection was redone in least squares (the dropped rows' residual stood out).
+    pub velocity_min_norm: u64,
+    /// A kept factorization gave a slow or inaccurate solve and was refactored.
+    pub solve_refactored: u64,
+    /// A basic solve was inaccurate with a fresh factorization: redundant rows probed again.
+    pub solve_reprobed: u64,
+    /// A solve whose right-hand side was inconsistent was answered in least squares.
+    pub solve_least_squares: u64,
+    /// A solve ended at its iteration limit without meeting its tolerance
+    /// (the result is used: the Newmark convergence test and the projection's
+    /// |Phi| check judge what it leads to).
+    pub solve_unconverged: u64,
+    /// An interpolated touch of a sleeve's lock length that the step map did not confirm.
+    pub dips_rejected: u64,
+    /// ... of which the check step itself failed (the touch is then not taken).
+    pub dip_checks_failed: u64,
+    /// A latch root search reached its iteration limit with the gap within
+    /// the latch tolerance (beyond it, the search is an error).
+    pub root_search_limit: u64,
+    /// The accelerations' fixed point with cable inertia stopped at its iteration limit.
+    pub consistent_unconverged: u64,
+}
+
+impl SolverStats {
+    /// The counters as one line (for `bench` and the node's shutdown log).
+    pub fn line(&self) -> String {
+        let f = &self.fallbacks;
+        format!(
+            "{} steps, {} sub-steps, {} Newmark steps ({:.2} iterations each), \
+             {} factorizations ({} reused, {} probes), {} solves ({:.2} iterations each), \
+             {} latch searches ({} trial steps), {} latches; fallbacks: {} halvings, \
+             {} Newmark min-norm, {} lagged friction, {} projection min-norm, {} velocity min-norm, \
+             {} refactored, {} re-probed, {} least-squares, {} unconverged solves, \
+             {} dips rejected ({} checks failed), {} root searches at their limit, \
+             {} inertia fixed points unconverged",
+            self.steps,
+            self.substeps,
+            self.newmark_steps,
+            self.newmark_iterations as f64 / self.newmark_steps.max(1) as f64,
+            self.factorizations,
+            self.factorizations_reused,
+            self.probes,
+            self.solves,
+            self.solve_iterations as f64 / self.solves.max(1) as f64,
+            self.latch_searches,
+            self.latch_search_steps,
+            self.latches,
+            f.substep_halvings,
+            f.newmark_min_norm,
+            f.newmark_lagged_friction,
+            f.projection_min_norm,
+            f.velocity_min_norm,
+            f.solve_refactored,
+            f.solve_reprobed,
+            f.solve_least_squares,
+            f.solve_unconverged,
+            f.dips_rejected,
+            f.dip_checks_failed,
+            f.root_search_limit,
+            f.consistent_unconverged,
+        )
+    }
+}
