@@ -577,7 +577,7 @@ fn velocities_stay_on_the_constraint_manifold_near_the_flat_state() {
 /// roundoff-level changes, ~2e-14 m, from it in other call patterns: this
 /// guards the property, it did not find that.)
 #[test]
-fn min_norm_multipliers_leave_the_trajectory_unchanged() {
+fn least_work_multipliers_leave_the_trajectory_unchanged() {
     for p in models() {
         let mut plain = sim(load(&p).expect("model").model, SolverKind::Sparse);
         let mut asked = sim(load(&p).expect("model").model, SolverKind::Sparse);

@@ -49,6 +49,19 @@ pub struct SimulateArgs {
     snapshots: Option<PathBuf>,
     #[arg(long, value_enum, default_value_t = SolverArg::Sparse)]
     solver: SolverArg,
+    /// Record the run as a ROS 2 MCAP file: the node's topics, log time = simulation time.
+    #[cfg(feature = "ros")]
+    #[arg(long, value_name = "FILE.mcap")]
+    mcap: Option<PathBuf>,
+    /// --mcap: publications per simulated second (default: every step).
+    #[cfg(feature = "ros")]
+    #[arg(
+        long,
+        value_name = "HZ",
+        allow_negative_numbers = true,
+        requires = "mcap"
+    )]
+    mcap_rate: Option<f64>,
 }
 
 /// Why a run stopped.
@@ -226,6 +239,15 @@ pub fn run(a: SimulateArgs) -> Result<(), Failure> {
         None => None,
     };
     let dof_initial = sim.state().mechanisms;
+    // --mcap (issue 15): the node's topics recorded offline, one code path with the node.
+    #[cfg(feature = "ros")]
+    let mut mcap = match &a.mcap {
+        Some(p) => Some(
+            crate::node::record::OfflineRecording::start(p, &mut sim, a.mcap_rate)
+                .map_err(Failure::input)?,
+        ),
+        None => None,
+    };
     let bar = ProgressBar::new((until / dt).ceil() as u64);
     bar.set_style(
         ProgressStyle::with_template(
@@ -320,6 +342,14 @@ pub fn run(a: SimulateArgs) -> Result<(), Failure> {
                 format!("stalled at t = {:.6} s: {why}", s.t_s),
             );
         }
+        // (recording after the checks: the mutable borrow ends the state's)
+        #[cfg(feature = "ros")]
+        if let Some(mc) = mcap.as_mut() {
+            if let Err(e) = mc.after_step(&mut sim) {
+                break (StopReason::Error, format!("cannot record --mcap: {e}"));
+            }
+        }
+        let (m, s) = (sim.model(), sim.state());
         bar.inc(1);
         if s.steps % 20 == 0 {
             bar.set_message(format!(
@@ -340,6 +370,16 @@ pub fn run(a: SimulateArgs) -> Result<(), Failure> {
         if let Err(e) = f.commit() {
             write_errors.push(e);
         }
+    }
+    #[cfg(feature = "ros")]
+    if let Some(m) = mcap {
+        let st = m.finish(&mut sim).map_err(Failure::run)?;
+        say!(
+            "mcap             {} messages, {} bytes: {}",
+            st.messages,
+            st.bytes,
+            st.path.display()
+        );
     }
     let (m, s) = (sim.model(), sim.state());
     let locks: Vec<(String, f64)> = s.locks.iter().map(|l| (l.name.clone(), l.time_s)).collect();

@@ -7,6 +7,7 @@ pub mod commands;
 pub mod controller;
 pub mod msgs;
 pub mod publish;
+pub mod record;
 
 use crate::solver::{Options, Simulator};
 use clap::{Args, ValueEnum};
@@ -79,6 +80,11 @@ pub struct NodeArgs {
     /// Write publish-period and command-latency statistics (JSON) here at exit.
     #[arg(long)]
     pub timing: Option<PathBuf>,
+    /// Record what the node publishes as a ROS 2 MCAP file (log time =
+    /// simulation time); finished on SIGINT, SIGTERM and --max-wall-s, and a
+    /// chunk is closed every second so that a killed node leaves a readable file.
+    #[arg(long, value_name = "FILE.mcap")]
+    pub record: Option<PathBuf>,
 }
 
 /// What a run did, for the exit message and tests.
@@ -376,6 +382,12 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
     let rate = a.rate.unwrap_or((a.rtf / dt).min(100.0));
     let pub_period = Duration::from_secs_f64(1.0 / rate);
     let view = publish::View::new(sim.model());
+    let mut rec = match &a.record {
+        Some(p) => Some(record::Recorder::create(p, &ns, a.markers_for).map_err(input)?),
+        None => None,
+    };
+    let mut rec_error: Option<String> = None;
+    let mut next_flush = Instant::now() + Duration::from_secs(1);
 
     let context = make_context(a.loopback).map_err(NodeError::Run)?;
     let mut node = context
@@ -434,17 +446,18 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
         // 0. Periodic publications first, so that stepping does not delay them.
         if now >= next_pub {
             let stamp = sim_stamp(sim.state().t_s);
+            let (js, st) = view.state_messages(&mut sim, stamp, &a.frame_id);
+            if let Some(r) = rec.as_mut() {
+                let ns = record::stamp_ns(sim.state().t_s);
+                let w = r
+                    .write(record::Topic::Clock, &Clock { clock: stamp }, ns)
+                    .and_then(|_| r.write(record::Topic::JointStates, &js, ns))
+                    .and_then(|_| r.write(record::Topic::State, &st, ns));
+                record_failed(&mut rec, &mut rec_error, w);
+            }
             let _ = ep.clock.publish(Clock { clock: stamp });
-            // (a least-squares solve with the sparse backend, only once a
-            // sleeve has latched: the efforts of sliding sleeves are 0)
-            let shared = (sim.state().locked.iter().any(|&l| l))
-                .then(|| sim.least_work_multipliers())
-                .and_then(Result::ok);
-            let lambda = shared.as_deref().unwrap_or(&sim.state().lambda);
-            let _ = ep
-                .js
-                .publish(view.joint_state(&sim, lambda, stamp, &a.frame_id));
-            let _ = ep.state.publish(view.truss_state(&sim, stamp, &a.frame_id));
+            let _ = ep.js.publish(js);
+            let _ = ep.state.publish(st);
             summary.publications += 1;
             if let Some(tm) = timing.as_mut() {
                 if tm.publish_at.len() < MAX_TIMING_RECORDS {
@@ -597,6 +610,14 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
             // Publish on change (anything but the stamp) and at 1 Hz.
             let key = publish::lock_key(&msg);
             if now >= next_lock || last_lock_key.as_ref() != Some(&key) {
+                if let Some(r) = rec.as_mut() {
+                    let w = r.write(
+                        record::Topic::LockStatus,
+                        &msg,
+                        record::stamp_ns(sim.state().t_s),
+                    );
+                    record_failed(&mut rec, &mut rec_error, w);
+                }
                 if let Err(e) = ep.lock.publish(msg) {
                     eprintln!("truss_deploy: lock_status publish: {e:?}");
                 }
@@ -606,8 +627,21 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
             lock_dirty = false;
         }
         if now >= next_marker {
-            ep.markers.publish(&view, &sim, stamp, &a.frame_id);
+            let m = view.markers(&sim, stamp, &a.frame_id);
+            if let Some(r) = rec.as_mut() {
+                let w = r.write_markers(&m, record::stamp_ns(sim.state().t_s));
+                record_failed(&mut rec, &mut rec_error, w);
+            }
+            ep.markers.publish_built(m);
             next_marker = now + marker_period;
+        }
+        // Close the recording's chunk every second: a kill loses at most that.
+        if now >= next_flush {
+            if let Some(r) = rec.as_mut() {
+                let w = r.flush();
+                record_failed(&mut rec, &mut rec_error, w);
+            }
+            next_flush = now + Duration::from_secs(1);
         }
         // 5. Sleep until the next thing to do.
         let mut wake = next_pub.min(next_lock).min(next_marker);
@@ -643,13 +677,26 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
     summary.rejected_commands = book.rejected;
     summary.stop_reason = stop_reason;
     // Final lock status so late joiners see the end state.
-    let _ = ep.lock.publish(view.lock_status(
-        &sim,
-        &book,
-        paused,
-        sim_stamp(sim.state().t_s),
-        &a.frame_id,
-    ));
+    let last = view.lock_status(&sim, &book, paused, sim_stamp(sim.state().t_s), &a.frame_id);
+    if let Some(mut r) = rec.take() {
+        let w = r
+            .write(
+                record::Topic::LockStatus,
+                &last,
+                record::stamp_ns(sim.state().t_s),
+            )
+            .and_then(|_| r.finish());
+        match w {
+            Ok(st) => println!(
+                "truss_deploy: recorded {} messages to {} ({} bytes)",
+                st.messages,
+                st.path.display(),
+                st.bytes
+            ),
+            Err(e) => rec_error = Some(e),
+        }
+    }
+    let _ = ep.lock.publish(last);
     if let (Some(path), Some(tm)) = (a.timing.as_ref(), timing.as_ref()) {
         let report = timing_report(tm, pub_period.as_secs_f64(), rate, dt, &a);
         if let Err(e) = std::fs::write(path, serde_json::to_string_pretty(&report).unwrap() + "\n")
@@ -675,7 +722,24 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
         summary.overruns
     );
     println!("truss_deploy: solver stats: {}", sim.solver_stats().line());
-    Ok(summary)
+    match rec_error {
+        Some(e) => Err(NodeError::Run(e)),
+        None => Ok(summary),
+    }
+}
+
+/// After a recording error: say it once, stop recording (the run goes on and
+/// ends with exit status 1).
+fn record_failed(
+    rec: &mut Option<record::Recorder>,
+    err: &mut Option<String>,
+    w: Result<(), String>,
+) {
+    if let Err(e) = w {
+        eprintln!("truss_deploy: {e}; recording stopped");
+        *rec = None;
+        *err = Some(e);
+    }
 }
 
 fn percentile(v: &mut [f64], p: f64) -> f64 {

@@ -148,6 +148,26 @@ impl View {
         }
     }
 
+    /// /joint_states and /truss/state of the current state, as the node
+    /// publishes them and the recorder records them: sleeve efforts from the
+    /// minimum-norm multipliers once a sleeve has latched (a least-squares
+    /// solve; the efforts of sliding sleeves are 0 and need none).
+    pub fn state_messages(
+        &self,
+        sim: &mut Simulator,
+        stamp: Time,
+        frame: &str,
+    ) -> (JointState, TrussState) {
+        let shared = (sim.state().locked.iter().any(|&l| l))
+            .then(|| sim.least_work_multipliers())
+            .and_then(Result::ok);
+        let lambda = shared.as_deref().unwrap_or(&sim.state().lambda);
+        (
+            self.joint_state(sim, lambda, stamp, frame),
+            self.truss_state(sim, stamp, frame),
+        )
+    }
+
     pub fn truss_state(&self, sim: &Simulator, stamp: Time, frame: &str) -> TrussState {
         let (m, s) = (sim.model(), sim.state());
         let n = m.n_joints();
@@ -328,7 +348,11 @@ impl MarkerPub {
     }
 
     pub fn publish(&self, view: &View, sim: &Simulator, stamp: Time, frame: &str) {
-        let m = view.markers(sim, stamp, frame);
+        self.publish_built(view.markers(sim, stamp, frame));
+    }
+
+    /// Publishes markers built by [`View::markers`] in this publisher's layout.
+    pub fn publish_built(&self, m: Vec<MarkerJazzy>) {
         let _ = match self {
             MarkerPub::Jazzy(p) => p.publish(MarkerArrayJazzy { markers: m }).map_err(|_| ()),
             MarkerPub::Humble(p) => p
