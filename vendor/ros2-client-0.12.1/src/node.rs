@@ -946,6 +946,18 @@ impl Node {
       })
   }
 
+  /// truss-deploy patch (vendor/PATCHES.md, P3): whether the local writer
+  /// `writer` has matched a remote reader in the participant of the remote
+  /// entity `peer` (same GUID prefix; kept by the Spinner: needs a running one).
+  pub fn writer_matched_participant(&self, writer: GUID, peer: GUID) -> bool {
+    self
+      .writers_to_remote_readers
+      .lock()
+      .unwrap()
+      .get(&writer)
+      .is_some_and(|readers| readers.iter().any(|r| r.prefix == peer.prefix))
+  }
+
   pub(crate) fn get_subscription_count(&self, publisher_guid: GUID) -> usize {
     self
       .writers_to_remote_readers

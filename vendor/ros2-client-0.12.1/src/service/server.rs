@@ -111,6 +111,64 @@ where
     // result
   }
 
+  /// truss-deploy patch (vendor/PATCHES.md, P3): receive a request whatever
+  /// service mapping its client uses. `pick` sees the request's CDR payload
+  /// (after the 4-byte encapsulation header) and its [`MessageInfo`], and
+  /// names the mapping to decode it with; that mapping is returned, to be
+  /// passed to [`Self::send_response_with_mapping`], together with the
+  /// MessageInfo (whose `publisher_gid` is the client's request writer).
+  /// The `service_mapping` given at creation is not used here.
+  #[allow(clippy::type_complexity)]
+  pub fn receive_request_any_mapping(
+    &self,
+    pick: impl Fn(&[u8], &MessageInfo) -> ServiceMapping,
+  ) -> ReadResult<Option<(RmwRequestId, Req, ServiceMapping, MessageInfo)>> {
+    self.request_receiver.drain_read_notifications();
+    let dcc_rw: Option<no_key::DeserializedCacheChange<RequestWrapper<Req>>> =
+      self.request_receiver.try_take_one()?;
+    match dcc_rw {
+      None => Ok(None),
+      Some(dcc) => {
+        let mi = MessageInfo::from(&dcc);
+        let req_wrapper = dcc.into_value();
+        let mapping = pick(&req_wrapper.bytes(), &mi);
+        let (ri, req) = req_wrapper.unwrap(mapping, &mi)?;
+        Ok(Some((ri, req, mapping, mi)))
+      }
+    }
+  }
+
+  /// truss-deploy patch (vendor/PATCHES.md, P3): [`Self::send_response`] in a
+  /// given mapping (the one [`Self::receive_request_any_mapping`] returned).
+  pub fn send_response_with_mapping(
+    &self,
+    rmw_req_id: RmwRequestId,
+    response: Resp,
+    mapping: ServiceMapping,
+  ) -> WriteResult<(), ()> {
+    let resp_wrapper = ResponseWrapper::<Resp>::new(
+      mapping,
+      rmw_req_id,
+      RepresentationIdentifier::CDR_LE,
+      response,
+    )?;
+    let write_opts = WriteOptionsBuilder::new()
+      .source_timestamp(Timestamp::now())
+      .related_sample_identity(SampleIdentity::from(rmw_req_id))
+      .build();
+    self
+      .response_sender
+      .write_with_options(resp_wrapper, write_opts)
+      .map(|_| ())
+      .map_err(|e| WriteError::from(e.forget_data()))
+  }
+
+  /// truss-deploy patch (vendor/PATCHES.md, P3): the GUID of the reply
+  /// writer, for [`Node::writer_matched_participant`].
+  pub fn response_writer_guid(&self) -> GUID {
+    self.response_sender.guid()
+  }
+
   /// The request_id must be sent back with the response to identify which
   /// request and response belong together.
   pub async fn async_receive_request(&self) -> ReadResult<(RmwRequestId, Req)> {

@@ -415,6 +415,15 @@ impl Reader {
             "Matched new remote writer on topic={:?} writer={:?}",
             self.topic_name, writer
           );
+          // truss-deploy patch (vendor/PATCHES.md, P2): ask the new writer
+          // for a HEARTBEAT now. Its first samples may have reached us before
+          // we knew the writer (they are dropped then); without this request
+          // they came back only at the writer's next periodic HEARTBEAT or
+          // our 5 s preemptive-ACKNACK round (about 1 to 6 s with Fast DDS,
+          // or never when the writer was deleted meanwhile).
+          if self.reliability != policy::Reliability::BestEffort {
+            self.send_preemptive_acknack_to(writer);
+          }
         }
       }
       Some(bad_policy_id) => {
@@ -1423,6 +1432,36 @@ impl Reader {
     }
     // put writer proxies back
     self.matched_writers = writer_proxies;
+  }
+
+  /// truss-deploy patch (vendor/PATCHES.md, P2): one preemptive ACKNACK
+  /// (empty set, final flag clear: "send me a HEARTBEAT") to one matched
+  /// writer, as the periodic round sends them.
+  fn send_preemptive_acknack_to(&mut self, writer_guid: GUID) {
+    if self.like_stateless {
+      return;
+    }
+    let flags = BitFlags::<ACKNACK_Flags>::from_flag(ACKNACK_Flags::Endianness);
+    let reader_id = self.entity_id();
+    let Some(writer_proxy) = self.matched_writers.get_mut(&writer_guid) else {
+      return;
+    };
+    let count = writer_proxy.next_ack_nack_sequence_number();
+    let locators = writer_proxy.unicast_locator_list.clone();
+    self.send_acknack_to(
+      flags,
+      AckNack {
+        reader_id,
+        writer_id: writer_guid.entity_id,
+        reader_sn_state: SequenceNumberSet::new_empty(SequenceNumber::new(1)),
+        count,
+      },
+      InfoDestination {
+        guid_prefix: writer_guid.prefix,
+      },
+      &locators,
+      writer_guid,
+    );
   }
 
   pub fn topic_name(&self) -> &String {

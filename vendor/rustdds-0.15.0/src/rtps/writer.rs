@@ -775,6 +775,14 @@ impl Writer {
     // The doorbell enqueues this writer's id and then wakes. A sample admitted
     // while we are here pushes another id, so the next wake runs us again. The
     // shared buffer's `last_seq` is the source of truth.
+    //
+    // truss-deploy patch (vendor/PATCHES.md, P1): with no matched reader,
+    // apply the History depth at once, not only at the next periodic cleaning
+    // (every 6 s), so that a reader matching later (transient local) gets the
+    // last `depth` samples and no more.
+    if self.readers.is_empty() && !self.like_stateless {
+      self.handle_cache_cleaning();
+    }
     loop {
       let last_available = self.send_buffer.last_change_sequence_number();
       if self.last_sent >= last_available {
@@ -1644,7 +1652,12 @@ impl Writer {
         .values()
         .map(RtpsReaderProxy::acked_up_to_before)
         .min()
-        .unwrap_or_else(SequenceNumber::zero);
+        // truss-deploy patch (vendor/PATCHES.md, P1): with no matched reader
+        // nobody awaits a repair, so only the History depth bounds the cache.
+        // (Upstream took 0 here: a writer without readers never dropped a
+        // sample, and a transient-local keep-last-1 writer handed a late
+        // joiner its whole history.)
+        .unwrap_or_else(|| self.send_buffer.last_change_sequence_number() + SequenceNumber::new(1));
       // If all readers have acked all up to before 5, and depth is 5, we need
       // to keep samples 0..4, i.e. from acked_up_to_before - depth .
       let depth_keeper = if let Some(depth) = depth {
