@@ -119,7 +119,7 @@ fn cyclone_python_peer_talks_to_the_node() {
     );
     assert_eq!(
         si["late_joiner_samples"], 1,
-        "a keep-last-1 late joiner gets exactly the last LockStatus"
+        "a late joiner (keeping up to 100) gets exactly the last LockStatus: the writer keeps last 1"
     );
     let lat = si["first_call_latency_s"].as_f64().unwrap();
     eprintln!("Cyclone client: first call answered {lat:.4} s after the service was available");

@@ -257,9 +257,13 @@ def sim_interfaces(dp, rel10, latched, js_r, xcdr1):
     out["reset"] = rp.result.result if rp else None
     t_0 = latest_stamp(js_r, 0.2)
     out["stamp_after_reset_s"] = t_0
-    # late joiner on lock_status once more: keep last 1, transient local
+    # late joiner on lock_status once more, transient local, keeping up to 100 samples:
+    # the node's writer (keep last 1) must send only its last one (RustDDS sent its
+    # whole history; a keep-last-1 reader polled slowly would hide that)
     time.sleep(1.5)
-    late = DataReader(dp, Topic(dp, "rt/truss/lock_status", LockStatus), qos=latched)
+    deep = Qos(Policy.Reliability.Reliable(duration(milliseconds=100)),
+               Policy.Durability.TransientLocal, Policy.History.KeepLast(100), xcdr1)
+    late = DataReader(dp, Topic(dp, "rt/truss/lock_status", LockStatus), qos=deep)
     got = []
     t0 = time.monotonic()
     for _ in range(300):

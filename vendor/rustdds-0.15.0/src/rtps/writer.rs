@@ -2061,6 +2061,11 @@ impl Writer {
   fn matched_reader_update(&mut self, updated_reader_proxy: &RtpsReaderProxy) -> bool {
     let mut is_new = false;
     let is_volatile = self.qos().is_volatile(); // Get this in advance to work with the borrow checker
+    let keep_last = match self.qos_policies.history {
+      Some(History::KeepLast { depth }) => Some(depth.max(1) as usize),
+      _ => None,
+    };
+    let last_seq = self.send_buffer.last_change_sequence_number();
                                                 // Capture the interface set once; resolution consults current observations.
     let multicast_ifaces = self.udp_sender.multicast_interfaces();
     let selector = DefaultRouteSelector::new(self.prefer_loopback_same_host);
@@ -2089,6 +2094,15 @@ impl Writer {
           // before matching with this reader. Therefore we set the reader as pending GAP
           // for all existing sequence numbers
           new_proxy.set_pending_gap_up_to(self.send_buffer.last_change_sequence_number());
+        } else if let Some(depth) = keep_last {
+          // truss-deploy patch (vendor/PATCHES.md, P1): a reader joining a
+          // keep-last-`depth` writer (transient local) gets the last `depth`
+          // samples; older ones still kept for other readers' repair are a
+          // GAP to it (upstream sent them all: the whole history).
+          let older = last_seq - SequenceNumber::from(depth);
+          if older > SequenceNumber::zero() {
+            new_proxy.set_pending_gap_up_to(older);
+          }
         }
         new_proxy.resolve_send_route(
           &self.interface_observations.borrow(),
