@@ -706,6 +706,7 @@ fn timing_report(tm: &Timing, period: f64, rate: f64, dt: f64, a: &NodeArgs) -> 
         "commands_applied": tm.cmd_latency_s.len(),
         "command_to_step_latency_s": {
             "definition": "sender's DDS source timestamp -> start of the first step using the command",
+            "first": tm.cmd_latency_s.first().map(|c| c.0),
             "p50": percentile(&mut e2e.clone(), 50.0),
             "p99": percentile(&mut e2e.clone(), 99.0),
             "max": percentile(&mut e2e, 100.0),
