@@ -94,9 +94,10 @@ fn fastdds_peer_talks_to_the_node_with_no_mapping_flag() {
         .collect();
     assert_eq!(names, ["U1", "S1", "U2", "S2", "U3", "S3", "U4", "S4"]);
     assert!(v["joint_states"].as_u64().unwrap() >= 20, "{v}");
-    // the first sample after matching is in force well within a second
-    // (RustDDS dropped it when it arrived before the match and asked for it
-    // again only at the writer's next heartbeat: about 1 to 6 s)
+    // the command written the moment the writer matched is in force, and shown
+    // on LockStatus, well within a second (main at 3231346: 0.94 to 0.98 s in 4 of
+    // 6 runs, in the same runs as the lost service replies: the node learnt the
+    // Fast DDS endpoints late; see vendor/PATCHES.md P2)
     let cmd = v["command_to_in_force_s"].as_f64().unwrap();
     assert!(
         (0.0..0.5).contains(&cmd),
