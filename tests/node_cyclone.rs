@@ -1,6 +1,9 @@
 //! Interoperability with an independent DDS implementation: a Cyclone DDS Python
 //! peer (tests/python/peer.py, types written from msg/*.msg) decodes /joint_states,
-//! late-joins /truss/lock_status and sends a command the node obeys.
+//! late-joins /truss/lock_status and sends a command the node obeys; then it drives
+//! the simulation_interfaces services as rmw_cyclonedds_cpp calls them (no mapping
+//! flag on the node): features, pause, step 5, resume, reset, and joins
+//! /truss/lock_status late once more, getting exactly the last sample.
 //! Interpreter: env TRUSS_PYTHON (default `python3`). SKIPS loudly when
 //! `import cyclonedds` fails; .ci/run installs it so that CI really runs this.
 #![cfg(feature = "ros")]
@@ -48,7 +51,9 @@ fn cyclone_python_peer_talks_to_the_node() {
         .env("ROS_DOMAIN_ID", dom.to_string())
         .env("CYCLONEDDS_URI", format!("file://{dir}/cyclone-lo.xml"))
         .env("PEER_SECS", "25")
-        .env("PEER_TENSION", "0.123")
+        // small: the mast must not deploy before the services are driven
+        .env("PEER_TENSION", "0.0234")
+        .env("PEER_SIM_IF", "1")
         .output()
         .expect("run peer.py");
     let _ = node.kill();
@@ -85,5 +90,39 @@ fn cyclone_python_peer_talks_to_the_node() {
         [5, 1, 1, 3],
         "rejected total, unknown, mismatched, bad tension"
     );
+    let si = &v["sim_interfaces"];
+    let f: Vec<u64> = si["features"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_u64().unwrap())
+        .collect();
+    for x in [20, 24, 25, 26, 31, 32] {
+        assert!(f.contains(&x), "feature {x} advertised: {f:?}");
+    }
+    assert_eq!(si["pause"], 1, "RESULT_OK");
+    assert_eq!(si["state_after_pause"], 2, "STATE_PAUSED");
+    assert_eq!(si["step"], 1);
+    let (tp, ts) = (
+        si["stamp_paused_s"].as_f64().unwrap(),
+        si["stamp_after_step_s"].as_f64().unwrap(),
+    );
+    assert!(
+        (ts - (tp + 5.0 * 0.05)).abs() < 1e-6,
+        "5 steps of 0.05 s while paused: {tp} -> {ts}"
+    );
+    assert_eq!(si["resume"], 1);
+    assert!(si["stamp_after_resume_s"].as_f64().unwrap() > ts + 0.5);
+    assert_eq!(si["reset"], 1);
+    assert!(
+        si["stamp_after_reset_s"].as_f64().unwrap() < si["stamp_after_resume_s"].as_f64().unwrap()
+    );
+    assert_eq!(
+        si["late_joiner_samples"], 1,
+        "a late joiner (keeping up to 100) gets exactly the last LockStatus: the writer keeps last 1"
+    );
+    let lat = si["first_call_latency_s"].as_f64().unwrap();
+    eprintln!("Cyclone client: first call answered {lat:.4} s after the service was available");
+    assert!(lat < 1.0, "first call within 1 s: {lat} s");
     assert!(out.status.success());
 }

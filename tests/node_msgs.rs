@@ -148,6 +148,7 @@ fn rust_field_types_are_what_the_table_says() {
         rejected_unknown_cable: 0u32,
         rejected_mismatched_lengths: 0u32,
         rejected_bad_tension: 0u32,
+        rejected_malformed: 0u32,
     };
     let _ = TrussState {
         header: h,
@@ -175,5 +176,169 @@ fn rust_field_types_are_what_the_table_says() {
                 "type {t} has no Rust mapping here"
             );
         }
+    }
+}
+
+/// Parses one part of a simulation_interfaces file: "msg", or "request" /
+/// "response" of a .srv. Returns the fields (name, type) and the constants
+/// (name, value); a field's default value (`uint64 steps 1`) is ignored.
+fn parse_part(text: &str, part: &str) -> (Vec<(String, String)>, Vec<(String, i64)>) {
+    let sections: Vec<&str> = text.split("\n---").collect();
+    let body = match part {
+        "msg" => sections[0],
+        "request" => sections[0],
+        "response" => sections.get(1).expect("a .srv has a response part"),
+        _ => unreachable!(),
+    };
+    let (mut fields, mut consts) = (Vec::new(), Vec::new());
+    for line in body.lines() {
+        let line = line.split('#').next().unwrap().trim();
+        if line.is_empty() || line == "---" {
+            continue;
+        }
+        if let Some((lhs, rhs)) = line.split_once('=') {
+            let name = lhs.split_whitespace().nth(1).expect("constant name");
+            consts.push((
+                name.to_string(),
+                rhs.trim().parse().expect("integer constant"),
+            ));
+            continue;
+        }
+        let parts: Vec<&str> = line.split_whitespace().collect();
+        assert!(parts.len() == 2 || parts.len() == 3, "field line: {line}");
+        fields.push((parts[1].to_string(), parts[0].to_string()));
+    }
+    (fields, consts)
+}
+
+/// The simulation_interfaces 2.x structs match the published .msg/.srv text
+/// (tests/data/simulation_interfaces-2.1.0) field by field, and the constants
+/// the node uses have the published values.
+#[test]
+fn simulation_interfaces_structs_match_the_published_definitions() {
+    use msgs::sim_if;
+    use msgs::*;
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data/simulation_interfaces-2.1.0");
+    let read =
+        |f: &str| std::fs::read_to_string(dir.join(f)).unwrap_or_else(|e| panic!("{f}: {e}"));
+    for (file, part, fields) in msgs::SIM_IF_FIELDS {
+        let (parsed, _) = parse_part(&read(file), part);
+        let table: Vec<(String, String)> = fields
+            .iter()
+            .map(|(f, t)| (f.to_string(), t.to_string()))
+            .collect();
+        assert_eq!(parsed, table, "{file} {part}: fields (name, type, order)");
+    }
+    // the table's names are the structs' serde names; empty requests carry
+    // ROS's one dummy byte
+    let check = |file: &str, part: &str, got: (&str, Vec<&str>)| {
+        let (_, _, fields) = msgs::SIM_IF_FIELDS
+            .iter()
+            .find(|(f, p, _)| *f == file && *p == part)
+            .unwrap();
+        let names: Vec<&str> = fields.iter().map(|(n, _)| *n).collect();
+        if names.is_empty() {
+            assert_eq!(
+                got.1,
+                ["structure_needs_at_least_one_member"],
+                "{file} {part}"
+            );
+        } else {
+            assert_eq!(got.1, names, "{file} {part} ({})", got.0);
+        }
+    };
+    check("Result.msg", "msg", serde_fields::<SimResult>());
+    check(
+        "SimulationState.msg",
+        "msg",
+        serde_fields::<SimulationState>(),
+    );
+    check(
+        "SimulatorFeatures.msg",
+        "msg",
+        serde_fields::<SimulatorFeatures>(),
+    );
+    check(
+        "GetSimulatorFeatures.srv",
+        "request",
+        serde_fields::<EmptyRequest>(),
+    );
+    check(
+        "GetSimulatorFeatures.srv",
+        "response",
+        serde_fields::<GetSimulatorFeaturesResponse>(),
+    );
+    check(
+        "GetSimulationState.srv",
+        "request",
+        serde_fields::<EmptyRequest>(),
+    );
+    check(
+        "GetSimulationState.srv",
+        "response",
+        serde_fields::<GetSimulationStateResponse>(),
+    );
+    check(
+        "SetSimulationState.srv",
+        "request",
+        serde_fields::<SetSimulationStateRequest>(),
+    );
+    check(
+        "SetSimulationState.srv",
+        "response",
+        serde_fields::<ResultResponse>(),
+    );
+    check(
+        "ResetSimulation.srv",
+        "request",
+        serde_fields::<ResetSimulationRequest>(),
+    );
+    check(
+        "ResetSimulation.srv",
+        "response",
+        serde_fields::<ResultResponse>(),
+    );
+    check(
+        "StepSimulation.srv",
+        "request",
+        serde_fields::<StepSimulationRequest>(),
+    );
+    check(
+        "StepSimulation.srv",
+        "response",
+        serde_fields::<ResultResponse>(),
+    );
+    // Rust types of the table's ROS types (compile-time: only builds if they are)
+    let _ = SimResult {
+        result: 0u8,
+        error_message: String::new(),
+    };
+    let _ = SimulationState { state: 0u8 };
+    let _ = SimulatorFeatures {
+        features: Vec::<u16>::new(),
+        spawn_formats: Vec::<String>::new(),
+        custom_info: String::new(),
+    };
+    let _ = ResetSimulationRequest { scope: 0u8 };
+    let _ = StepSimulationRequest { steps: 0u64 };
+    // constants
+    for (file, name, value) in sim_if::ALL {
+        let text = read(file);
+        let consts = ["msg", "response"]
+            .iter()
+            .flat_map(|p| {
+                if *p == "response" && !file.ends_with(".srv") {
+                    vec![]
+                } else {
+                    parse_part(&text, p).1
+                }
+            })
+            .collect::<Vec<_>>();
+        let got = consts
+            .iter()
+            .find(|(n, _)| n == name)
+            .unwrap_or_else(|| panic!("{file}: no constant {name}"));
+        assert_eq!(got.1, *value, "{file} {name}");
     }
 }

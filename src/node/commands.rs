@@ -2,6 +2,7 @@
 
 use super::msgs::CableForceCommand;
 use crate::solver::model::Model;
+use std::time::{Duration, Instant};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Fault {
@@ -57,6 +58,9 @@ pub fn validate(
     Ok(out)
 }
 
+/// At most one log line about undecodable command samples per this period.
+pub const MALFORMED_LOG_PERIOD: Duration = Duration::from_secs(10);
+
 /// Counters and the "log once per kind" memory.
 #[derive(Clone, Debug, Default)]
 pub struct CommandBook {
@@ -65,10 +69,45 @@ pub struct CommandBook {
     pub unknown_cable: u32,
     pub mismatched_lengths: u32,
     pub bad_tension: u32,
+    /// Samples that could not be decoded as a CableForceCommand.
+    pub malformed: u32,
     logged: [bool; 3],
+    malformed_logged_at: Option<Instant>,
+    malformed_unlogged: u32,
 }
 
 impl CommandBook {
+    /// Counts a command sample that could not be decoded (`why`: the decoder's
+    /// reason). Returns a log line for the first one and then at most one per
+    /// [`MALFORMED_LOG_PERIOD`], giving the number since the last line, so a
+    /// flood of them neither goes unnoticed nor floods the log.
+    pub fn malformed(&mut self, why: &str, now: Instant) -> Option<String> {
+        self.malformed = self.malformed.saturating_add(1);
+        self.malformed_unlogged = self.malformed_unlogged.saturating_add(1);
+        if self
+            .malformed_logged_at
+            .is_some_and(|t| now.duration_since(t) < MALFORMED_LOG_PERIOD)
+        {
+            return None;
+        }
+        let n = std::mem::take(&mut self.malformed_unlogged);
+        let first = self.malformed_logged_at.is_none();
+        self.malformed_logged_at = Some(now);
+        Some(if first {
+            format!(
+                "cable_force_cmd sample not decodable as truss_deploy/msg/CableForceCommand ({why}); \
+                 skipped, reading goes on. Counted in lock_status rejected_malformed; logged at most \
+                 once per {} s.",
+                MALFORMED_LOG_PERIOD.as_secs()
+            )
+        } else {
+            format!(
+                "{n} more undecodable cable_force_cmd samples (last: {why}); {} in all",
+                self.malformed
+            )
+        })
+    }
+
     /// Validates; on a fault counts it and returns the log line the first time
     /// this kind of fault is seen (None afterwards).
     pub fn check(
@@ -111,5 +150,30 @@ impl CommandBook {
                 (None, log)
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// 10,000 undecodable samples in one second give one log line; the next
+    /// one after the period gives a second line that counts those in between.
+    #[test]
+    fn malformed_samples_are_counted_and_their_log_rate_limited() {
+        let mut b = CommandBook::default();
+        let t0 = Instant::now();
+        let mut lines = Vec::new();
+        for k in 0..10_000u64 {
+            let now = t0 + Duration::from_micros(100 * k);
+            lines.extend(b.malformed("eof", now));
+        }
+        assert_eq!(b.malformed, 10_000);
+        assert_eq!(lines.len(), 1, "{lines:?}");
+        let later = b.malformed("eof", t0 + MALFORMED_LOG_PERIOD + Duration::from_secs(1));
+        let line = later.expect("a line after the period");
+        assert!(line.starts_with("10000 more"), "{line}");
+        assert_eq!(b.malformed, 10_001);
+        assert_eq!(b.rejected, 0, "malformed samples are not rejected commands");
     }
 }

@@ -8,6 +8,18 @@ pub mod controller;
 pub mod msgs;
 pub mod publish;
 pub mod record;
+pub mod services;
+
+#[cfg(all(feature = "humble", feature = "jazzy"))]
+compile_error!(
+    "features `humble` and `jazzy` exclude each other; for Humble build with \
+     `--no-default-features --features humble`"
+);
+#[cfg(not(any(feature = "humble", feature = "jazzy")))]
+compile_error!(
+    "the node needs a ROS 2 distribution: feature `jazzy` (the default) or \
+     `--no-default-features --features humble` (feature `ros` alone is not enough)"
+);
 
 use crate::solver::{Options, Simulator};
 use clap::{Args, ValueEnum};
@@ -16,13 +28,20 @@ use msgs::*;
 use ros2_client::dds::rustdds::DomainParticipantBuilder;
 use ros2_client::qos::{Durability, History, WhenFull};
 use ros2_client::{
-    Context, MessageTypeName, Name, Node, NodeName, NodeOptions, Publisher, QosProfile, Server,
-    ServiceMapping, ServiceTypeName, Subscription,
+    Context, MessageTypeName, Name, Node, NodeName, NodeOptions, Publisher, QosProfile,
+    ServiceMapping, Subscription,
 };
+use services::{Control, Services};
 use std::net::Ipv4Addr;
 use std::path::PathBuf;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
 use tokio::time::Instant as TokioInstant;
+
+/// The ROS 2 distribution this build is for (cargo feature `jazzy` or `humble`).
+#[cfg(feature = "humble")]
+pub const BUILT_FOR: Distro = Distro::Humble;
+#[cfg(not(feature = "humble"))]
+pub const BUILT_FOR: Distro = Distro::Jazzy;
 
 #[derive(Clone, Copy, Debug, ValueEnum, PartialEq, Eq)]
 pub enum Distro {
@@ -63,13 +82,17 @@ pub struct NodeArgs {
     /// Frame of headers and markers.
     #[arg(long, default_value = "truss")]
     pub frame_id: String,
-    /// Layout of visualization_msgs/Marker on /truss/markers.
-    #[arg(long, value_enum, default_value_t = Distro::Jazzy)]
+    /// Layout of visualization_msgs/Marker on /truss/markers. Default: the
+    /// distribution of this build (cargo feature `jazzy` or `humble`).
+    #[arg(long, value_enum, default_value_t = BUILT_FOR)]
     pub markers_for: Distro,
-    /// Service mapping of /truss/{reset,pause,resume,step}. Default from
-    /// RMW_IMPLEMENTATION (fastrtps/connext: enhanced), else cyclone.
+    /// Answer every service request in this mapping. Default: each request in
+    /// its own client's mapping (rmw_cyclonedds and rmw_fastrtps alike).
     #[arg(long, value_enum)]
     pub service_mapping: Option<Mapping>,
+    /// Do not publish /clock (several simulators on one domain).
+    #[arg(long)]
+    pub no_clock: bool,
     /// Start paused (services resume/step drive it).
     #[arg(long)]
     pub paused: bool,
@@ -194,19 +217,11 @@ pub mod qos {
     }
 }
 
-fn service_mapping(m: Option<Mapping>) -> ServiceMapping {
-    let m = m.unwrap_or_else(|| {
-        let rmw = std::env::var("RMW_IMPLEMENTATION").unwrap_or_default();
-        if rmw.contains("fastrtps") || rmw.contains("connext") {
-            Mapping::Enhanced
-        } else {
-            Mapping::Cyclone
-        }
-    });
-    match m {
+fn forced_mapping(m: Option<Mapping>) -> Option<ServiceMapping> {
+    m.map(|m| match m {
         Mapping::Cyclone => ServiceMapping::Cyclone,
         Mapping::Enhanced => ServiceMapping::Enhanced,
-    }
+    })
 }
 
 /// Entry point of `truss-deploy node`: a current_thread runtime around [`run`].
@@ -234,33 +249,35 @@ impl std::fmt::Display for NodeError {
     }
 }
 
-type Trigger = Server<TriggerRequest, TriggerResponse>;
-
 struct Endpoints {
     js: Publisher<JointState>,
     state: Publisher<TrussState>,
     lock: Publisher<LockStatus>,
-    clock: Publisher<Clock>,
+    /// None with --no-clock.
+    clock: Option<Publisher<Clock>>,
     markers: publish::MarkerPub,
     cmd: Subscription<CableForceCommand>,
-    srv: [Trigger; 4],
+    srv: Services,
 }
-
-const SRV_NAMES: [&str; 4] = ["reset", "pause", "resume", "step"];
 
 fn create_endpoints(node: &mut Node, ns: &str, a: &NodeArgs) -> Result<Endpoints, String> {
     let e = |what: &str, err: &dyn std::fmt::Debug| format!("create {what}: {err:?}");
     // /clock first: the spinner creates its own rt/clock reader (see launch_notes.md).
-    let clock_t = node
-        .create_topic(
-            &Name::new("/", "clock").map_err(|x| e("clock", &x))?,
-            MessageTypeName::new("rosgraph_msgs", "Clock"),
-            &qos::clock(),
+    let clock = if a.no_clock {
+        None
+    } else {
+        let clock_t = node
+            .create_topic(
+                &Name::new("/", "clock").map_err(|x| e("clock", &x))?,
+                MessageTypeName::new("rosgraph_msgs", "Clock"),
+                &qos::clock(),
+            )
+            .map_err(|x| e("clock", &x))?;
+        Some(
+            node.create_publisher::<Clock>(&clock_t, None)
+                .map_err(|x| e("clock", &x))?,
         )
-        .map_err(|x| e("clock", &x))?;
-    let clock = node
-        .create_publisher::<Clock>(&clock_t, None)
-        .map_err(|x| e("clock", &x))?;
+    };
     let js_t = node
         .create_topic(
             &topic_name(ns, "", "joint_states")?,
@@ -303,23 +320,7 @@ fn create_endpoints(node: &mut Node, ns: &str, a: &NodeArgs) -> Result<Endpoints
     let cmd = node
         .create_subscription::<CableForceCommand>(&cmd_t, None)
         .map_err(|x| e("cable_force_cmd", &x))?;
-    let mapping = service_mapping(a.service_mapping);
-    let mk = |node: &mut Node, base: &str| -> Result<Trigger, String> {
-        node.create_server::<TriggerRequest, TriggerResponse>(
-            mapping,
-            &topic_name(ns, "truss", base)?,
-            &ServiceTypeName::new("std_srvs", "Trigger"),
-            qos::reliable10(),
-            qos::reliable10(),
-        )
-        .map_err(|x| e(base, &x))
-    };
-    let srv = [
-        mk(node, SRV_NAMES[0])?,
-        mk(node, SRV_NAMES[1])?,
-        mk(node, SRV_NAMES[2])?,
-        mk(node, SRV_NAMES[3])?,
-    ];
+    let srv = Services::new(node, ns, forced_mapping(a.service_mapping))?;
     Ok(Endpoints {
         js,
         state,
@@ -341,7 +342,6 @@ struct Timing {
 
 const MAX_TIMING_RECORDS: usize = 2_000_000;
 const MAX_CMDS_PER_WAKE: usize = 100_000;
-const MAX_REQS_PER_WAKE: usize = 64;
 const MAX_CATCHUP_STEPS: usize = 50;
 
 fn unix_now_ns() -> i64 {
@@ -396,7 +396,7 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
             NodeOptions::new().enable_rosout(true),
         )
         .map_err(|e| NodeError::Run(format!("node: {e:?}")))?;
-    let ep = create_endpoints(&mut node, &ns, &a).map_err(NodeError::Run)?;
+    let mut ep = create_endpoints(&mut node, &ns, &a).map_err(NodeError::Run)?;
     let spinner = node
         .spinner()
         .map_err(|e| NodeError::Run(format!("spinner: {e:?}")))?;
@@ -422,17 +422,13 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
     let start = Instant::now();
     let deadline = a.max_wall_s.map(|s| start + Duration::from_secs_f64(s));
     let mut book = CommandBook::default();
-    let mut paused = a.paused;
-    // Sim time target = anchor_sim + rtf * (now - anchor_wall).
-    let mut anchor_wall = start;
-    let mut anchor_sim = sim.state().t_s;
+    let mut ctl = Control::new(a.paused, &sim, dt);
     let mut next_pub = start;
     let mut next_lock = start;
     let marker_period = Duration::from_millis(200);
     let mut next_marker = start;
     let mut pending: Option<(Vec<(usize, f64)>, i64, Instant)> = None;
     let mut awaiting_step: Option<(i64, Instant)> = None;
-    let mut step_error_logged = false;
     let mut lock_dirty = true;
     let mut summary = RunSummary::default();
     let mut timing = a.timing.as_ref().map(|_| Timing::default());
@@ -455,7 +451,9 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
                     .and_then(|_| r.write(record::Topic::State, &st, ns));
                 record_failed(&mut rec, &mut rec_error, w);
             }
-            let _ = ep.clock.publish(Clock { clock: stamp });
+            if let Some(clock) = &ep.clock {
+                let _ = clock.publish(Clock { clock: stamp });
+            }
             let _ = ep.js.publish(js);
             let _ = ep.state.publish(st);
             summary.publications += 1;
@@ -472,24 +470,15 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
         // 1. Commands: drain everything pending (the reader keeps at most its
         //    QoS depth), validate each, keep the last valid one.
         for _ in 0..MAX_CMDS_PER_WAKE {
-            match ep.cmd.take() {
-                Ok(Some((cmd, info))) => {
-                    let (ok, log) = book.check(&cmd, sim.model());
-                    if let Some(l) = log {
-                        eprintln!("truss_deploy: {l}");
-                    }
-                    if let Some(v) = ok {
-                        let src = info.source_timestamp().map(|t| t.to_nanos()).unwrap_or(0);
-                        pending = Some((v, src, Instant::now()));
-                    }
-                    lock_dirty = true;
-                }
+            let r = match ep.cmd.take() {
                 Ok(None) => break,
-                Err(e) => {
-                    eprintln!("truss_deploy: command read error {e:?}");
-                    break;
-                }
+                Ok(Some(x)) => Ok(x),
+                Err(e) => Err(e),
+            };
+            if let Some(p) = book_command(r, &mut book, sim.model()) {
+                pending = Some(p);
             }
+            lock_dirty = true;
         }
         // The last valid command is in force from the next step on.
         if let Some((cmd, src_ns, taken)) = pending.take() {
@@ -502,61 +491,20 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
                 awaiting_step = Some((src_ns, taken));
             }
         }
-        // 2. Services.
-        let mut want_step = false;
-        for (k, srv) in ep.srv.iter().enumerate() {
-            for _ in 0..MAX_REQS_PER_WAKE {
-                let Ok(Some((id, _req))) = srv.receive_request() else {
-                    break;
-                };
-                let (success, message) = match SRV_NAMES[k] {
-                    "reset" => match sim.reset() {
-                        Ok(()) => {
-                            anchor_wall = Instant::now();
-                            anchor_sim = sim.state().t_s;
-                            step_error_logged = false;
-                            (
-                                true,
-                                "reset to t = 0 with the model's cable tensions".to_string(),
-                            )
-                        }
-                        Err(e) => (false, format!("reset failed: {e}")),
-                    },
-                    "pause" => {
-                        paused = true;
-                        (true, format!("paused at t = {:.3} s", sim.state().t_s))
-                    }
-                    "resume" => {
-                        paused = false;
-                        anchor_wall = Instant::now();
-                        anchor_sim = sim.state().t_s;
-                        (true, format!("running from t = {:.3} s", sim.state().t_s))
-                    }
-                    _ => {
-                        paused = true;
-                        want_step = true;
-                        (
-                            true,
-                            format!(
-                                "one step of {dt} s from t = {:.3} s; paused",
-                                sim.state().t_s
-                            ),
-                        )
-                    }
-                };
-                lock_dirty = true;
-                if let Err(e) = srv.send_response(id, TriggerResponse { success, message }) {
-                    eprintln!("truss_deploy: service {} response: {e:?}", SRV_NAMES[k]);
-                }
-            }
+        // 2. Services (each request in its client's mapping; see services.rs).
+        let before = ctl.steps;
+        if ep.srv.serve(&node, &mut ctl, &mut sim, Instant::now()) > 0 {
+            lock_dirty = true;
         }
+        summary.steps += ctl.steps - before;
         // 3. Stepping in real time.
         let now = Instant::now();
-        let target = anchor_sim + a.rtf * now.duration_since(anchor_wall).as_secs_f64();
+        let target = ctl.anchor_sim + a.rtf * now.duration_since(ctl.anchor_wall).as_secs_f64();
         let mut n = 0;
         while !sim.state().deployed
-            && !step_error_logged
-            && ((want_step && n == 0) || (!paused && sim.state().t_s + 0.5 * dt <= target))
+            && !ctl.step_failed
+            && !ctl.paused()
+            && sim.state().t_s + 0.5 * dt <= target
             && n < MAX_CATCHUP_STEPS
         {
             if let Some((src_ns, taken)) = awaiting_step.take() {
@@ -582,7 +530,7 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
                         "truss_deploy: step failed at t = {:.4} s: {e}; holding the last state (reset to continue)",
                         sim.state().t_s
                     );
-                    step_error_logged = true;
+                    ctl.step_failed = true;
                     lock_dirty = true;
                 }
             }
@@ -599,14 +547,14 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
         if n == MAX_CATCHUP_STEPS {
             // Too far behind: drop the debt instead of spiralling.
             summary.overruns += 1;
-            anchor_wall = Instant::now();
-            anchor_sim = sim.state().t_s;
+            ctl.anchor_wall = Instant::now();
+            ctl.anchor_sim = sim.state().t_s;
         }
         // 4. Publications.
         let now = Instant::now();
         let stamp = sim_stamp(sim.state().t_s);
         if lock_dirty || now >= next_lock {
-            let msg = view.lock_status(&sim, &book, paused, stamp, &a.frame_id);
+            let msg = view.lock_status(&sim, &book, ctl.paused(), stamp, &a.frame_id);
             // Publish on change (anything but the stamp) and at 1 Hz.
             let key = publish::lock_key(&msg);
             if now >= next_lock || last_lock_key.as_ref() != Some(&key) {
@@ -645,9 +593,11 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
         }
         // 5. Sleep until the next thing to do.
         let mut wake = next_pub.min(next_lock).min(next_marker);
-        if !paused && !sim.state().deployed && !step_error_logged {
-            let due = anchor_wall
-                + Duration::from_secs_f64(((sim.state().t_s + dt - anchor_sim) / a.rtf).max(0.0));
+        if !ctl.paused() && !sim.state().deployed && !ctl.step_failed {
+            let due = ctl.anchor_wall
+                + Duration::from_secs_f64(
+                    ((sim.state().t_s + dt - ctl.anchor_sim) / a.rtf).max(0.0),
+                );
             wake = wake.min(due);
         }
         if let Some(d) = deadline {
@@ -658,6 +608,16 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
         let sleep = tokio::time::sleep_until(TokioInstant::from_std(wake));
         tokio::select! {
             _ = sleep => {}
+            // A command wakes the loop at once: read at the rate they come (a
+            // keep-last-10 reader polled every 20 ms lost valid commands among
+            // a flood), and in force sooner.
+            r = ep.cmd.async_take() => {
+                if let Some(p) = book_command(r, &mut book, sim.model()) {
+                    pending = Some(p);
+                }
+                lock_dirty = true;
+                continue;
+            }
             _ = sigint.recv() => break "SIGINT".into(),
             _ = sigterm.recv() => break "SIGTERM".into(),
         }
@@ -677,7 +637,7 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
     summary.rejected_commands = book.rejected;
     summary.stop_reason = stop_reason;
     // Final lock status so late joiners see the end state.
-    let last = view.lock_status(&sim, &book, paused, sim_stamp(sim.state().t_s), &a.frame_id);
+    let last = view.lock_status(&sim, &book, ctl.paused(), sim_stamp(sim.state().t_s), &a.frame_id);
     if let Some(mut r) = rec.take() {
         let w = r
             .write(
@@ -742,6 +702,39 @@ fn record_failed(
     }
 }
 
+/// Books one read of the command topic: a command is validated (counted,
+/// logged once per kind of fault); a sample that could not be decoded is
+/// counted as malformed (the reader has moved past it, so reading goes on).
+/// Returns the valid command's (cable, tension) list with its source stamp
+/// (ns since the Unix epoch, 0 if none) and the time it was taken.
+#[allow(clippy::type_complexity)]
+fn book_command(
+    r: ros2_client::ReadResult<(CableForceCommand, ros2_client::MessageInfo)>,
+    book: &mut CommandBook,
+    model: &crate::solver::model::Model,
+) -> Option<(Vec<(usize, f64)>, i64, Instant)> {
+    match r {
+        Ok((cmd, info)) => {
+            let (ok, log) = book.check(&cmd, model);
+            if let Some(l) = log {
+                eprintln!("truss_deploy: {l}");
+            }
+            let src = info.source_timestamp().map(|t| t.to_nanos()).unwrap_or(0);
+            ok.map(|v| (v, src, Instant::now()))
+        }
+        Err(e) => {
+            let why = match &e {
+                ros2_client::ReadError::Deserialization { reason } => reason.clone(),
+                other => format!("{other:?}"),
+            };
+            if let Some(l) = book.malformed(&why, Instant::now()) {
+                eprintln!("truss_deploy: {l}");
+            }
+            None
+        }
+    }
+}
+
 fn percentile(v: &mut [f64], p: f64) -> f64 {
     if v.is_empty() {
         return f64::NAN;
@@ -778,6 +771,7 @@ fn timing_report(tm: &Timing, period: f64, rate: f64, dt: f64, a: &NodeArgs) -> 
         "commands_applied": tm.cmd_latency_s.len(),
         "command_to_step_latency_s": {
             "definition": "sender's DDS source timestamp -> start of the first step using the command",
+            "first": tm.cmd_latency_s.first().map(|c| c.0),
             "p50": percentile(&mut e2e.clone(), 50.0),
             "p99": percentile(&mut e2e.clone(), 99.0),
             "max": percentile(&mut e2e, 100.0),
@@ -788,4 +782,47 @@ fn timing_report(tm: &Timing, period: f64, rate: f64, dt: f64, a: &NodeArgs) -> 
             "max": percentile(&mut take, 100.0),
         },
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[derive(Parser)]
+    struct Cli {
+        #[command(flatten)]
+        node: NodeArgs,
+    }
+
+    /// The distribution feature decides the Gid in ros_discovery_info (Humble
+    /// 24 bytes, Iron and later 16: rmw_dds_common/msg/Gid.msg) and the
+    /// default Marker layout (Humble's has no texture, uv_coordinates or
+    /// mesh_file fields). CI runs this under both features.
+    #[test]
+    fn distribution_feature_selects_gid_and_marker_layout() {
+        let a = Cli::parse_from(["x", "model.toml"]).node;
+        assert_eq!(a.markers_for, BUILT_FOR);
+        #[cfg(feature = "humble")]
+        {
+            assert_eq!(ros2_client::gid::GID_LENGTH, 24);
+            assert_eq!(BUILT_FOR, Distro::Humble);
+            assert_eq!(
+                ros2_client::COMPILED_ROS_DISTRO,
+                ros2_client::RosDistro::Humble
+            );
+        }
+        #[cfg(feature = "jazzy")]
+        {
+            assert_eq!(ros2_client::gid::GID_LENGTH, 16);
+            assert_eq!(BUILT_FOR, Distro::Jazzy);
+            assert_eq!(
+                ros2_client::COMPILED_ROS_DISTRO,
+                ros2_client::RosDistro::Jazzy
+            );
+        }
+        // --no-clock parses; the service mapping is detected unless forced
+        let b = Cli::parse_from(["x", "m.toml", "--no-clock"]).node;
+        assert!(b.no_clock && b.service_mapping.is_none());
+    }
 }

@@ -104,6 +104,7 @@ pub struct LockStatus {
     pub rejected_unknown_cable: u32,
     pub rejected_mismatched_lengths: u32,
     pub rejected_bad_tension: u32,
+    pub rejected_malformed: u32,
 }
 impl Message for LockStatus {}
 
@@ -141,6 +142,7 @@ pub const CUSTOM_FIELDS: &[(&str, &[(&str, &str)])] = &[
             ("rejected_unknown_cable", "uint32"),
             ("rejected_mismatched_lengths", "uint32"),
             ("rejected_bad_tension", "uint32"),
+            ("rejected_malformed", "uint32"),
         ],
     ),
     (
@@ -170,6 +172,205 @@ pub struct TriggerResponse {
     pub message: String,
 }
 impl Message for TriggerResponse {}
+
+// ---- simulation_interfaces 2.x (tests/data/simulation_interfaces-2.1.0) ----
+
+/// simulation_interfaces/msg/Result.
+#[derive(Debug, Clone, Default, Serialize, Deserialize, PartialEq)]
+pub struct SimResult {
+    pub result: u8,
+    pub error_message: String,
+}
+
+/// simulation_interfaces/msg/SimulationState.
+#[derive(Debug, Clone, Copy, Default, Serialize, Deserialize, PartialEq)]
+pub struct SimulationState {
+    pub state: u8,
+}
+
+/// simulation_interfaces/msg/SimulatorFeatures.
+#[derive(Debug, Clone, Default, Serialize, Deserialize, PartialEq)]
+pub struct SimulatorFeatures {
+    pub features: Vec<u16>,
+    pub spawn_formats: Vec<String>,
+    pub custom_info: String,
+}
+
+/// An empty ROS request (GetSimulatorFeatures, GetSimulationState): one dummy byte.
+#[derive(Debug, Clone, Default, Serialize, Deserialize, PartialEq)]
+pub struct EmptyRequest {
+    pub structure_needs_at_least_one_member: u8,
+}
+impl Message for EmptyRequest {}
+
+#[derive(Debug, Clone, Default, Serialize, Deserialize, PartialEq)]
+pub struct GetSimulatorFeaturesResponse {
+    pub features: SimulatorFeatures,
+}
+impl Message for GetSimulatorFeaturesResponse {}
+
+#[derive(Debug, Clone, Default, Serialize, Deserialize, PartialEq)]
+pub struct GetSimulationStateResponse {
+    pub state: SimulationState,
+    pub result: SimResult,
+}
+impl Message for GetSimulationStateResponse {}
+
+#[derive(Debug, Clone, Default, Serialize, Deserialize, PartialEq)]
+pub struct SetSimulationStateRequest {
+    pub state: SimulationState,
+}
+impl Message for SetSimulationStateRequest {}
+
+/// The response of SetSimulationState, ResetSimulation and StepSimulation: one Result.
+#[derive(Debug, Clone, Default, Serialize, Deserialize, PartialEq)]
+pub struct ResultResponse {
+    pub result: SimResult,
+}
+impl Message for ResultResponse {}
+
+#[derive(Debug, Clone, Default, Serialize, Deserialize, PartialEq)]
+pub struct ResetSimulationRequest {
+    pub scope: u8,
+}
+impl Message for ResetSimulationRequest {}
+
+#[derive(Debug, Clone, Default, Serialize, Deserialize, PartialEq)]
+pub struct StepSimulationRequest {
+    pub steps: u64,
+}
+impl Message for StepSimulationRequest {}
+
+/// Constants of simulation_interfaces 2.x used by the node (checked against the
+/// .msg/.srv text by tests/node_msgs.rs).
+pub mod sim_if {
+    pub const RESULT_FEATURE_UNSUPPORTED: u8 = 0;
+    pub const RESULT_OK: u8 = 1;
+    pub const RESULT_INCORRECT_STATE: u8 = 3;
+    pub const RESULT_OPERATION_FAILED: u8 = 4;
+    pub const STATE_STOPPED: u8 = 0;
+    pub const STATE_PLAYING: u8 = 1;
+    pub const STATE_PAUSED: u8 = 2;
+    /// SetSimulationState response extra result.
+    pub const ALREADY_IN_TARGET_STATE: u8 = 101;
+    pub const SCOPE_DEFAULT: u8 = 0;
+    pub const SCOPE_TIME: u8 = 1;
+    pub const SCOPE_STATE: u8 = 2;
+    pub const SCOPE_ALL: u8 = 255;
+    pub const SIMULATION_RESET: u16 = 20;
+    pub const SIMULATION_STATE_GETTING: u16 = 24;
+    pub const SIMULATION_STATE_SETTING: u16 = 25;
+    pub const SIMULATION_STATE_PAUSE: u16 = 26;
+    pub const STEP_SIMULATION_SINGLE: u16 = 31;
+    pub const STEP_SIMULATION_MULTIPLE: u16 = 32;
+    /// (file, constant, value) for the test against the published text.
+    pub const ALL: &[(&str, &str, i64)] = &[
+        (
+            "Result.msg",
+            "RESULT_FEATURE_UNSUPPORTED",
+            RESULT_FEATURE_UNSUPPORTED as i64,
+        ),
+        ("Result.msg", "RESULT_OK", RESULT_OK as i64),
+        (
+            "Result.msg",
+            "RESULT_INCORRECT_STATE",
+            RESULT_INCORRECT_STATE as i64,
+        ),
+        (
+            "Result.msg",
+            "RESULT_OPERATION_FAILED",
+            RESULT_OPERATION_FAILED as i64,
+        ),
+        ("SimulationState.msg", "STATE_STOPPED", STATE_STOPPED as i64),
+        ("SimulationState.msg", "STATE_PLAYING", STATE_PLAYING as i64),
+        ("SimulationState.msg", "STATE_PAUSED", STATE_PAUSED as i64),
+        (
+            "SetSimulationState.srv",
+            "ALREADY_IN_TARGET_STATE",
+            ALREADY_IN_TARGET_STATE as i64,
+        ),
+        ("ResetSimulation.srv", "SCOPE_DEFAULT", SCOPE_DEFAULT as i64),
+        ("ResetSimulation.srv", "SCOPE_TIME", SCOPE_TIME as i64),
+        ("ResetSimulation.srv", "SCOPE_STATE", SCOPE_STATE as i64),
+        ("ResetSimulation.srv", "SCOPE_ALL", SCOPE_ALL as i64),
+        (
+            "SimulatorFeatures.msg",
+            "SIMULATION_RESET",
+            SIMULATION_RESET as i64,
+        ),
+        (
+            "SimulatorFeatures.msg",
+            "SIMULATION_STATE_GETTING",
+            SIMULATION_STATE_GETTING as i64,
+        ),
+        (
+            "SimulatorFeatures.msg",
+            "SIMULATION_STATE_SETTING",
+            SIMULATION_STATE_SETTING as i64,
+        ),
+        (
+            "SimulatorFeatures.msg",
+            "SIMULATION_STATE_PAUSE",
+            SIMULATION_STATE_PAUSE as i64,
+        ),
+        (
+            "SimulatorFeatures.msg",
+            "STEP_SIMULATION_SINGLE",
+            STEP_SIMULATION_SINGLE as i64,
+        ),
+        (
+            "SimulatorFeatures.msg",
+            "STEP_SIMULATION_MULTIPLE",
+            STEP_SIMULATION_MULTIPLE as i64,
+        ),
+    ];
+}
+
+/// The simulation_interfaces types as the Rust side declares them:
+/// (file, part, [(field, type)]) where part is "msg", "request" or "response".
+pub const SIM_IF_FIELDS: &[(&str, &str, &[(&str, &str)])] = &[
+    (
+        "Result.msg",
+        "msg",
+        &[("result", "uint8"), ("error_message", "string")],
+    ),
+    ("SimulationState.msg", "msg", &[("state", "uint8")]),
+    (
+        "SimulatorFeatures.msg",
+        "msg",
+        &[
+            ("features", "uint16[]"),
+            ("spawn_formats", "string[]"),
+            ("custom_info", "string"),
+        ],
+    ),
+    ("GetSimulatorFeatures.srv", "request", &[]),
+    (
+        "GetSimulatorFeatures.srv",
+        "response",
+        &[("features", "SimulatorFeatures")],
+    ),
+    ("GetSimulationState.srv", "request", &[]),
+    (
+        "GetSimulationState.srv",
+        "response",
+        &[("state", "SimulationState"), ("result", "Result")],
+    ),
+    (
+        "SetSimulationState.srv",
+        "request",
+        &[("state", "SimulationState")],
+    ),
+    (
+        "SetSimulationState.srv",
+        "response",
+        &[("result", "Result")],
+    ),
+    ("ResetSimulation.srv", "request", &[("scope", "uint8")]),
+    ("ResetSimulation.srv", "response", &[("result", "Result")]),
+    ("StepSimulation.srv", "request", &[("steps", "uint64")]),
+    ("StepSimulation.srv", "response", &[("result", "Result")]),
+];
 
 /// visualization_msgs/msg/Marker as of ROS 2 Iron/Jazzy (with texture, uv and
 /// mesh_file fields). Humble's layout is [`MarkerHumble`].

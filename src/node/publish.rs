@@ -233,6 +233,7 @@ impl View {
             rejected_unknown_cable: book.unknown_cable,
             rejected_mismatched_lengths: book.mismatched_lengths,
             rejected_bad_tension: book.bad_tension,
+            rejected_malformed: book.malformed,
         }
     }
 

@@ -5,8 +5,12 @@ Types are written by hand from msg/*.msg (and sensor_msgs/JointState); the typen
 is ROS 2's DDS mangling pkg::msg::dds_::Type_. The peer
   (a) receives and decodes rt/joint_states,
   (b) late-joins rt/truss/lock_status (reliable, transient local, keep last 1),
-  (c) sends rt/truss/cable_force_cmd and waits for LockStatus to show it in force.
-Every loop is bounded in count and time. Exit code 0 iff all three worked.
+  (c) sends rt/truss/cable_force_cmd and waits for LockStatus to show it in force,
+  (d) with PEER_SIM_IF=1: drives the simulation_interfaces services as rmw_cyclonedds_cpp
+      calls them (rq/<name>Request, rr/<name>Reply, a 16-byte header of client id and
+      sequence number before the request): features, pause, step 5, resume, reset; and
+      joins /truss/lock_status late once more, counting what it gets (must be exactly 1).
+Every loop is bounded in count and time. Exit code 0 iff all of them worked.
 Env: ROS_DOMAIN_ID, PEER_SECS (default 20), PEER_TENSION (default 0.123),
 CYCLONEDDS_URI (tests pass a loopback-only config).
 """
@@ -18,7 +22,7 @@ from dataclasses import dataclass
 
 from cyclonedds.domain import DomainParticipant
 from cyclonedds.idl import IdlStruct
-from cyclonedds.idl.types import float64, int32, sequence, uint32
+from cyclonedds.idl.types import float64, int32, int64, sequence, uint8, uint16, uint32, uint64
 from cyclonedds.pub import DataWriter
 from cyclonedds.qos import Policy, Qos
 from cyclonedds.sub import DataReader
@@ -65,6 +69,7 @@ class LockStatus(IdlStruct, typename="truss_deploy::msg::dds_::LockStatus_"):
     rejected_unknown_cable: uint32
     rejected_mismatched_lengths: uint32
     rejected_bad_tension: uint32
+    rejected_malformed: uint32
 
 
 # msg/CableForceCommand.msg
@@ -72,6 +77,212 @@ class LockStatus(IdlStruct, typename="truss_deploy::msg::dds_::LockStatus_"):
 class CableForceCommand(IdlStruct, typename="truss_deploy::msg::dds_::CableForceCommand_"):
     names: sequence[str]
     tensions_n: sequence[float64]
+
+
+# simulation_interfaces 2.x (tests/data/simulation_interfaces-2.1.0), each request and
+# reply prefixed with rmw_cyclonedds_cpp's header (uint64 client id, int64 sequence number).
+@dataclass
+class SimResult(IdlStruct, typename="simulation_interfaces::msg::dds_::Result_"):
+    result: uint8
+    error_message: str
+
+
+@dataclass
+class SimulationState(IdlStruct, typename="simulation_interfaces::msg::dds_::SimulationState_"):
+    state: uint8
+
+
+@dataclass
+class SimulatorFeatures(IdlStruct, typename="simulation_interfaces::msg::dds_::SimulatorFeatures_"):
+    features: sequence[uint16]
+    spawn_formats: sequence[str]
+    custom_info: str
+
+
+@dataclass
+class GetSimulatorFeaturesRq(IdlStruct, typename="simulation_interfaces::srv::dds_::GetSimulatorFeatures_Request_"):
+    guid: uint64
+    seq: int64
+    structure_needs_at_least_one_member: uint8
+
+
+@dataclass
+class GetSimulatorFeaturesRp(IdlStruct, typename="simulation_interfaces::srv::dds_::GetSimulatorFeatures_Response_"):
+    guid: uint64
+    seq: int64
+    features: SimulatorFeatures
+
+
+@dataclass
+class GetSimulationStateRq(IdlStruct, typename="simulation_interfaces::srv::dds_::GetSimulationState_Request_"):
+    guid: uint64
+    seq: int64
+    structure_needs_at_least_one_member: uint8
+
+
+@dataclass
+class GetSimulationStateRp(IdlStruct, typename="simulation_interfaces::srv::dds_::GetSimulationState_Response_"):
+    guid: uint64
+    seq: int64
+    state: SimulationState
+    result: SimResult
+
+
+@dataclass
+class SetSimulationStateRq(IdlStruct, typename="simulation_interfaces::srv::dds_::SetSimulationState_Request_"):
+    guid: uint64
+    seq: int64
+    state: SimulationState
+
+
+@dataclass
+class SetSimulationStateRp(IdlStruct, typename="simulation_interfaces::srv::dds_::SetSimulationState_Response_"):
+    guid: uint64
+    seq: int64
+    result: SimResult
+
+
+@dataclass
+class ResetSimulationRq(IdlStruct, typename="simulation_interfaces::srv::dds_::ResetSimulation_Request_"):
+    guid: uint64
+    seq: int64
+    scope: uint8
+
+
+@dataclass
+class ResetSimulationRp(IdlStruct, typename="simulation_interfaces::srv::dds_::ResetSimulation_Response_"):
+    guid: uint64
+    seq: int64
+    result: SimResult
+
+
+@dataclass
+class StepSimulationRq(IdlStruct, typename="simulation_interfaces::srv::dds_::StepSimulation_Request_"):
+    guid: uint64
+    seq: int64
+    steps: uint64
+
+
+@dataclass
+class StepSimulationRp(IdlStruct, typename="simulation_interfaces::srv::dds_::StepSimulation_Response_"):
+    guid: uint64
+    seq: int64
+    result: SimResult
+
+
+RESULT_OK, STATE_PLAYING, STATE_PAUSED = 1, 1, 2
+
+
+class CycloneClient:
+    """A service client as rmw_cyclonedds_cpp makes one."""
+
+    def __init__(self, dp, name, rq_type, rp_type, qos):
+        self.w = DataWriter(dp, Topic(dp, f"rq/truss/{name}Request", rq_type), qos=qos)
+        self.r = DataReader(dp, Topic(dp, f"rr/truss/{name}Reply", rp_type), qos=qos)
+        self.rq_type = rq_type
+        self.guid = 0x1234_5678_9ABC_DEF0 ^ hash(name) & 0xFFFF_FFFF
+        self.seq = 0
+        self.name = name
+
+    def available(self):
+        return len(self.w.get_matched_subscriptions()) > 0 and len(self.r.get_matched_publications()) > 0
+
+    def call(self, timeout_s=5.0, **fields):
+        """Waits (bounded) for the service, calls it; returns (reply, seconds from
+        availability to reply) or (None, None)."""
+        t0 = time.monotonic()
+        for _ in range(int(timeout_s / 0.005) + 1):
+            if self.available() or time.monotonic() - t0 > timeout_s:
+                break
+            time.sleep(0.005)
+        if not self.available():
+            log(self.name, "never available")
+            return None, None
+        t_av = time.monotonic()
+        self.seq += 1
+        self.w.write(self.rq_type(guid=self.guid, seq=self.seq, **fields))
+        for _ in range(int(timeout_s / 0.002) + 1):
+            for rp in self.r.take(N=10):
+                if rp.guid == self.guid and rp.seq == self.seq:
+                    return rp, time.monotonic() - t_av
+            if time.monotonic() - t_av > timeout_s:
+                break
+            time.sleep(0.002)
+        log(self.name, "no reply within", timeout_s, "s")
+        return None, None
+
+
+def latest_stamp(js_r, settle_s=0.3):
+    """The newest /joint_states stamp after settle_s (bounded)."""
+    t = None
+    t0 = time.monotonic()
+    for _ in range(int(settle_s / 0.01) + 2):
+        for s in js_r.take(N=200):
+            t = s.header.stamp.sec + 1e-9 * s.header.stamp.nanosec
+        if time.monotonic() - t0 > settle_s:
+            break
+        time.sleep(0.01)
+    return t
+
+
+def sim_interfaces(dp, rel10, latched, js_r, xcdr1):
+    """(d): returns a dict of results; 'ok' says whether all passed."""
+    out = {"ok": False}
+    feat = CycloneClient(dp, "get_simulator_features", GetSimulatorFeaturesRq, GetSimulatorFeaturesRp, rel10)
+    get = CycloneClient(dp, "get_simulation_state", GetSimulationStateRq, GetSimulationStateRp, rel10)
+    setc = CycloneClient(dp, "set_simulation_state", SetSimulationStateRq, SetSimulationStateRp, rel10)
+    reset = CycloneClient(dp, "reset_simulation", ResetSimulationRq, ResetSimulationRp, rel10)
+    step = CycloneClient(dp, "step_simulation", StepSimulationRq, StepSimulationRp, rel10)
+    rp, lat = feat.call(structure_needs_at_least_one_member=0)
+    if rp is None:
+        return out
+    out["first_call_latency_s"] = lat
+    out["features"] = list(rp.features.features)
+    rp, _ = setc.call(state=SimulationState(state=STATE_PAUSED))
+    out["pause"] = rp.result.result if rp else None
+    rp, _ = get.call(structure_needs_at_least_one_member=0)
+    out["state_after_pause"] = rp.state.state if rp else None
+    t_p = latest_stamp(js_r)
+    rp, lat = step.call(steps=5)
+    out["step"] = rp.result.result if rp else None
+    out["step_latency_s"] = lat
+    t_s = latest_stamp(js_r)
+    out["stamp_paused_s"], out["stamp_after_step_s"] = t_p, t_s
+    rp, _ = setc.call(state=SimulationState(state=STATE_PLAYING))
+    out["resume"] = rp.result.result if rp else None
+    time.sleep(1.0)
+    t_r = latest_stamp(js_r)
+    out["stamp_after_resume_s"] = t_r
+    rp, _ = reset.call(scope=0)
+    out["reset"] = rp.result.result if rp else None
+    t_0 = latest_stamp(js_r, 0.2)
+    out["stamp_after_reset_s"] = t_0
+    # late joiner on lock_status once more, transient local, keeping up to 100 samples:
+    # the node's writer (keep last 1) must send only its last one (RustDDS sent its
+    # whole history; a keep-last-1 reader polled slowly would hide that)
+    time.sleep(1.5)
+    deep = Qos(Policy.Reliability.Reliable(duration(milliseconds=100)),
+               Policy.Durability.TransientLocal, Policy.History.KeepLast(100), xcdr1)
+    late = DataReader(dp, Topic(dp, "rt/truss/lock_status", LockStatus), qos=deep)
+    got = []
+    t0 = time.monotonic()
+    for _ in range(300):
+        got += late.take(N=100)
+        if time.monotonic() - t0 > 2.0:
+            break
+        time.sleep(0.01)
+    out["late_joiner_samples"] = len(got)
+    dt = 0.05
+    out["ok"] = (
+        out["pause"] == RESULT_OK and out["state_after_pause"] == STATE_PAUSED
+        and out["step"] == RESULT_OK and t_p is not None and t_s is not None
+        and abs(t_s - (t_p + 5 * dt)) < 1e-6
+        and out["resume"] == RESULT_OK and t_r is not None and t_r > t_s + 0.5
+        and out["reset"] == RESULT_OK and t_0 is not None and t_0 < t_r
+        and len(got) == 1
+        and all(f in out["features"] for f in (20, 24, 25, 26, 31, 32))
+    )
+    return out
 
 
 def log(*a):
@@ -133,6 +344,11 @@ def main() -> int:
         time.sleep(0.02)
 
     ok = n_js >= 20 and first_lock is not None and obeyed is not None
+    sim_if = None
+    if ok and os.environ.get("PEER_SIM_IF") == "1":
+        sim_if = sim_interfaces(dp, rel10, latched, js_r, xcdr1)
+        log("simulation_interfaces:", sim_if)
+        ok = sim_if["ok"]
     summary = {
         "joint_states": n_js,
         "joint_names": js_names,
@@ -144,6 +360,7 @@ def main() -> int:
         "command_obeyed": obeyed is not None,
         "rejected": [obeyed.rejected_commands, obeyed.rejected_unknown_cable,
                      obeyed.rejected_mismatched_lengths, obeyed.rejected_bad_tension] if obeyed else None,
+        "sim_interfaces": sim_if,
         "result": "PASS" if ok else "FAIL",
     }
     print("SUMMARY " + json.dumps(summary), flush=True)

@@ -1,0 +1,132 @@
+//! Interoperability with eProsima Fast DDS, the DDS under ROS 2's default RMW
+//! (rmw_fastrtps_cpp): tests/fastdds/peer.cpp, built here with g++ against
+//! Debian's libfastrtps-dev, receives /joint_states, writes a command the moment
+//! its writer matches and sees it in force, calls /truss/pause as rmw_fastrtps
+//! does (no mapping flag on the node, no RMW_IMPLEMENTATION), and floods
+//! malformed commands with valid ones among them.
+//! SKIPS loudly when Fast DDS or g++ is missing, unless TRUSS_REQUIRE_FASTDDS=1
+//! (set by .ci/run, which installs libfastrtps-dev): then it fails.
+#![cfg(feature = "ros")]
+
+use std::path::PathBuf;
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+const MODEL: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/models/pantograph_mast.toml");
+
+/// Builds the peer into the target dir; None (with the reason) when it cannot.
+fn build_peer() -> Result<PathBuf, String> {
+    let src = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fastdds/peer.cpp");
+    if !std::path::Path::new("/usr/include/fastdds").is_dir() {
+        return Err(
+            "Fast DDS headers (/usr/include/fastdds) missing: apt-get install libfastrtps-dev"
+                .into(),
+        );
+    }
+    let out = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("fastdds-peer");
+    let status = Command::new("g++")
+        .args(["-std=c++17", "-O1", "-o"])
+        .arg(&out)
+        .arg(src)
+        .args(["-lfastrtps", "-lfastcdr"])
+        .status()
+        .map_err(|e| format!("g++: {e}"))?;
+    if !status.success() {
+        return Err(format!("g++ {src} failed: {status}"));
+    }
+    Ok(out)
+}
+
+#[test]
+fn fastdds_peer_talks_to_the_node_with_no_mapping_flag() {
+    let peer = match build_peer() {
+        Ok(p) => p,
+        Err(why) => {
+            if std::env::var("TRUSS_REQUIRE_FASTDDS").as_deref() == Ok("1") {
+                panic!("TRUSS_REQUIRE_FASTDDS=1 but the Fast DDS peer cannot be built: {why}");
+            }
+            eprintln!("\n!!!!!!!! SKIPPED node_fastdds: {why}. .ci/run installs it. !!!!!!!!\n");
+            return;
+        }
+    };
+    let dom = 170 + (std::process::id() % 25) as u16;
+    let mut node = Command::new(env!("CARGO_BIN_EXE_truss-deploy"))
+        .args([
+            "node",
+            MODEL,
+            "--loopback",
+            "--lock-period-s",
+            "1000",
+            "--max-wall-s",
+            "45",
+        ])
+        .env("ROS_DOMAIN_ID", dom.to_string())
+        .env_remove("RMW_IMPLEMENTATION")
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("spawn node");
+    std::thread::sleep(Duration::from_secs(2));
+    let t0 = Instant::now();
+    let out = Command::new(&peer)
+        .env("ROS_DOMAIN_ID", dom.to_string())
+        .env("PEER_SECS", "30")
+        .output()
+        .expect("run the Fast DDS peer");
+    let _ = node.kill();
+    let node_out = node.wait_with_output().expect("node output");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let node_err = String::from_utf8_lossy(&node_out.stderr);
+    eprintln!(
+        "{stdout}\n{}\n--- node stderr ---\n{node_err}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(t0.elapsed() < Duration::from_secs(60));
+    let line = stdout
+        .lines()
+        .find_map(|l| l.strip_prefix("SUMMARY "))
+        .expect("peer summary");
+    let v: serde_json::Value = serde_json::from_str(line).unwrap();
+    let names: Vec<&str> = v["joint_names"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_str().unwrap())
+        .collect();
+    assert_eq!(names, ["U1", "S1", "U2", "S2", "U3", "S3", "U4", "S4"]);
+    assert!(v["joint_states"].as_u64().unwrap() >= 20, "{v}");
+    // the command written the moment the writer matched is in force, and shown
+    // on LockStatus, well within a second (main at 3231346: 0.94 to 0.98 s in 4 of
+    // 6 runs, in the same runs as the lost service replies: the node learnt the
+    // Fast DDS endpoints late; see vendor/PATCHES.md P2)
+    let cmd = v["command_to_in_force_s"].as_f64().unwrap();
+    assert!(
+        (0.0..0.5).contains(&cmd),
+        "command in force after {cmd} s: {v}"
+    );
+    // the service answers rmw_fastrtps' mapping with no flag, the first call within 1 s
+    let lat: Vec<f64> = v["call_latency_s"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|x| x.as_f64().unwrap())
+        .collect();
+    assert_eq!(lat.len(), 2, "two calls answered: {v}");
+    assert!(lat[0] < 1.0, "first call within 1 s: {lat:?}");
+    let msg = v["call_messages"][0].as_str().unwrap();
+    assert!(msg.starts_with("ok: paused at t = "), "{msg}");
+    assert_eq!(v["paused"], true);
+    // malformed flood: every valid command among them applied, the last in force,
+    // the malformed ones counted (some may be dropped by the reader's keep-last-10
+    // history before they are read, so not necessarily all of them)
+    let sent = v["flood_valid_sent"].as_u64().unwrap();
+    assert_eq!(sent, 10);
+    assert_eq!(v["flood_valid_applied"].as_u64().unwrap(), sent, "{v}");
+    assert_eq!(v["flood_last_valid_in_force"], true);
+    let bad = v["rejected_malformed"].as_u64().unwrap();
+    assert!(bad > 0, "malformed samples counted: {v}");
+    // the log names them once, not once per sample
+    let logged = node_err.matches("not decodable").count();
+    assert_eq!(logged, 1, "one log line for the malformed flood");
+    assert_eq!(v["result"], "PASS", "{v}");
+    assert!(out.status.success());
+}
