@@ -33,6 +33,10 @@ pub struct SimulateArgs {
     /// Draw the truss at 6 instants of the deployment in a 3-D projection (SVG).
     #[arg(long, value_name = "FILE.svg")]
     snapshots: Option<PathBuf>,
+    /// Draw each sleeve's latch time against its place around the ring, marker area
+    /// by impulse, the hardest and the last latch labelled (SVG).
+    #[arg(long, value_name = "FILE.svg")]
+    latch_plot: Option<PathBuf>,
     #[arg(long, value_enum, default_value_t = SolverArg::Sparse)]
     solver: SolverArg,
 }
@@ -100,6 +104,9 @@ pub fn run(a: SimulateArgs) -> Result<(), Failure> {
         a.snapshots.as_deref(),
     )
     .map_err(Failure::input)?;
+    if let Some(p) = &a.latch_plot {
+        plot::check_writable(p).map_err(Failure::input)?;
+    }
     rec.record(sim.state().t_s, &sim.state().x);
     let mut csv = match &a.csv {
         Some(p) => {
@@ -178,6 +185,19 @@ pub fn run(a: SimulateArgs) -> Result<(), Failure> {
         match &error {
             Some(_) => eprintln!("error: {e}"),
             None => return Err(Failure::run(e)),
+        }
+    }
+    if let Some(p) = &a.latch_plot {
+        let sleeves: Vec<String> = m
+            .locks
+            .iter()
+            .map(|&e| m.elements[e].name().to_string())
+            .collect();
+        if let Err(e) = plot::latch_plot(p, &format!("{}: latches", m.name), &sleeves, &s.locks) {
+            match &error {
+                Some(_) => eprintln!("error: {e}"),
+                None => return Err(Failure::run(e)),
+            }
         }
     }
     match error {

@@ -53,11 +53,23 @@ pub struct RingParams {
     pub sync: String,
     /// Passive latching cross-diagonals in the cells between the rings.
     pub cell_diagonals: bool,
-    /// "hub": held at its centre (symmetric deployment); "frame0": held at post O0.
+    /// Mount. Stowing ring: "post" (post O0 clamped to a boom, the default) or "hub".
+    /// Synchronized ring: "hub" (held at its centre) or "frame0" (held at post O0).
     pub mount: String,
+    /// Today's synchronized ring (`generate ring --sync`): square radial frames with
+    /// telescopic radial members, chord hinges at every post and the gears of `sync`;
+    /// one mechanism, every latch at one instant, and it folds only part-way.
+    /// `false` is the stowing ring (`ring_stowing::stowing_ring`).
+    pub synchronized: bool,
+    /// Stowing ring: inner chords on revolute hinges fixed in the inner posts'
+    /// fittings (true: one mechanism, it deploys to full lock) or on ball joints
+    /// (false: sides - 2 mechanisms, but the inner ring then flattens ahead of the
+    /// outer one and the ring locks up short of deployed; see ring_stowing).
+    pub inner_hinges: bool,
 }
 
 impl Default for RingParams {
+    /// Today's synchronized ring (the bundled `models/double_ring.toml`).
     fn default() -> Self {
         RingParams {
             sides: 18,
@@ -74,6 +86,30 @@ impl Default for RingParams {
             sync: "both".into(),
             cell_diagonals: true,
             mount: "hub".into(),
+            synchronized: true,
+            inner_hinges: true,
+        }
+    }
+}
+
+impl RingParams {
+    /// The synchronized ring: square frames, gears at both post hinges, passive cell
+    /// diagonals, hub mount, 35 deg start (`generate ring --sync`; today the default).
+    /// Tests about the synchronized ring use this, so they keep testing it when
+    /// the default changes.
+    pub fn synchronized() -> Self {
+        RingParams::default()
+    }
+    /// The stowing ring (`generate ring --stow`, see `ring_stowing`): parallelogram
+    /// bays and radial frames that shear to a bundle, no gears, held at post O0.
+    pub fn stowing() -> Self {
+        RingParams {
+            start_deg: 75.0,
+            sync: "none".into(),
+            cell_diagonals: false,
+            mount: "post".into(),
+            synchronized: false,
+            ..RingParams::default()
         }
     }
 }
@@ -135,7 +171,19 @@ pub fn ring_cable_path(n: usize, ring: &str) -> Vec<String> {
         .collect()
 }
 
+/// The double ring: the stowing ring, or today's synchronized ring with
+/// `synchronized` set.
 pub fn ring(p: &RingParams) -> Result<ModelDoc, String> {
+    check_params(p)?;
+    if p.synchronized {
+        synchronized_ring(p)
+    } else {
+        super::ring_stowing::stowing_ring(p)
+    }
+}
+
+/// Checks shared by both rings.
+fn check_params(p: &RingParams) -> Result<(), String> {
     let n = p.sides;
     if !(6..=360).contains(&n) || n % 2 != 0 {
         return Err(format!("--sides {n}: a double ring has an even number of sides from 6 to 360 (the bays fold in a zig-zag)"));
@@ -162,6 +210,17 @@ pub fn ring(p: &RingParams) -> Result<ModelDoc, String> {
         p.friction_mu,
         p.damping_n_s_per_m,
     )?;
+    Ok(())
+}
+
+fn synchronized_ring(p: &RingParams) -> Result<ModelDoc, String> {
+    let n = p.sides;
+    if p.sync != "none" && !["both", "axial", "radial"].contains(&p.sync.as_str()) {
+        return Err(format!(
+            "--sync {}: use both, axial, radial or none",
+            p.sync
+        ));
+    }
     let a0 = 0.5 * p.outer_chord_m * p.start_deg.to_radians().sin();
     let x0 = ring_positions(p, a0)?;
     let xd = ring_positions(p, 0.0)?;
