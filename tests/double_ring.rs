@@ -385,3 +385,30 @@ fn stowing_ring_with_hinges_on_both_rings_is_one_mechanism() {
     let after = mobility::analyze(&model, model.reference.as_ref().unwrap(), &all);
     assert_eq!(after.mechanisms, 0);
 }
+
+/// The stowing ring deploys from its bundle (start extent <= 0.30) to every sleeve
+/// latched, onto its reference (computed in closed form, not by the simulator),
+/// with the constraints held and the energy balanced. Its single mechanism latches
+/// every sleeve within a millisecond.
+#[test]
+fn stowing_ring_deploys_from_the_bundle_to_full_lock() {
+    let model = model_of(&RingParams::stowing());
+    let dt = model.dt_s;
+    let mut sim = Simulator::new(model, Options::default()).unwrap();
+    let mut worst = 0.0f64;
+    while !sim.state().deployed {
+        assert!(sim.state().t_s < 700.0, "not deployed by 700 s");
+        sim.step(dt).unwrap();
+        worst = worst.max(sim.state().max_violation_m);
+    }
+    let (m, s) = (sim.model(), sim.state());
+    assert!(worst <= 1e-9, "|Phi| {worst}");
+    assert_eq!(s.locks.len(), m.locks.len(), "every sleeve latched");
+    assert!(s.final_error_rel(m).unwrap() <= 1e-6);
+    let bal = s.energy.balance_rel_error(s.kinetic_energy_j(m));
+    assert!(bal <= 1e-4, "energy balance {bal:e}");
+    let (t0, t1) = s.locks.iter().fold((f64::INFINITY, 0.0f64), |(a, b), l| {
+        (a.min(l.time_s), b.max(l.time_s))
+    });
+    assert!(t1 - t0 < 1e-3, "one mechanism: latches from {t0} to {t1} s");
+}
