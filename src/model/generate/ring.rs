@@ -162,6 +162,67 @@ pub fn ring_positions(p: &RingParams, a: f64) -> Result<Vec<[f64; 3]>, String> {
     Ok(out)
 }
 
+/// The joints of a ring: names, start positions `x0`, reference positions `xd`
+/// shifted so that joint O0_b keeps its start position when the ring is held at
+/// post O0 (`at_post`); a ring held at its hub keeps its axis.
+pub(super) fn ring_joints(
+    p: &RingParams,
+    x0: &[[f64; 3]],
+    xd: &[[f64; 3]],
+    at_post: bool,
+) -> Vec<JointDoc> {
+    let shift = if at_post {
+        [
+            x0[0][0] - xd[0][0],
+            x0[0][1] - xd[0][1],
+            x0[0][2] - xd[0][2],
+        ]
+    } else {
+        [0.0; 3]
+    };
+    ring_joint_names(p.sides)
+        .into_iter()
+        .zip(x0.iter().zip(xd))
+        .map(|(name, (a, d))| JointDoc {
+            name,
+            position_m: *a,
+            mass_kg: p.joint_mass_kg,
+            reference_m: Some([d[0] + shift[0], d[1] + shift[1], d[2] + shift[2]]),
+        })
+        .collect()
+}
+
+/// A support fixing coordinates `fix` of one joint.
+pub(super) fn fix_joint(joint: String, fix: &str) -> ElementDoc {
+    ElementDoc {
+        kind: "support".into(),
+        name: format!("fix_{joint}_{fix}"),
+        joints: vec![joint],
+        params: vec![("fix".into(), Param::Text(fix.into()))],
+    }
+}
+
+/// Hub mount: the centre of the outer bottom joints fixed; O0_b (on the x axis)
+/// held at y = 0 against spin; the mean heights of two blocks of 2m consecutive
+/// frames (equal numbers of low and high frames, so their mean stays 0) against tilt.
+pub(super) fn hub_mount(n: usize) -> Vec<ElementDoc> {
+    let ob = |k: usize| format!("O{}_b", k % n);
+    let m = (n / 4).max(1);
+    let centroid = |name: &str, joints: Vec<String>, f: &str| ElementDoc {
+        kind: "centroid".into(),
+        name: name.into(),
+        joints,
+        params: vec![("fix".into(), Param::Text(f.into()))],
+    };
+    let block = |from: usize| (from..from + 2 * m).map(ob).collect::<Vec<_>>();
+    vec![
+        centroid("hub_centre", (0..n).map(ob).collect(), "xyz"),
+        fix_joint(ob(0), "y"),
+        centroid("hub_level_a", block(0), "z"),
+        centroid("hub_level_b", block(n - m), "z"),
+    ]
+}
+
 /// Path of the drive cable of one ring ("O" or "I"): from the motor at frame 0
 /// through every bay diagonal (low bottom -> high top -> next low bottom ...) and
 /// back to frame 0, where its end is anchored.
@@ -236,26 +297,7 @@ fn synchronized_ring(p: &RingParams) -> Result<ModelDoc, String> {
             ))
         }
     };
-    let shift = if hub {
-        [0.0; 3]
-    } else {
-        [
-            x0[0][0] - xd[0][0],
-            x0[0][1] - xd[0][1],
-            x0[0][2] - xd[0][2],
-        ]
-    };
-    let names = ring_joint_names(n);
-    let joints = names
-        .iter()
-        .zip(x0.iter().zip(&xd))
-        .map(|(nm, (a, d))| JointDoc {
-            name: nm.clone(),
-            position_m: *a,
-            mass_kg: p.joint_mass_kg,
-            reference_m: Some([d[0] + shift[0], d[1] + shift[1], d[2] + shift[2]]),
-        })
-        .collect();
+    let joints = ring_joints(p, &x0, &xd, !hub);
     let (h, co, ci) = (p.height_m, p.outer_chord_m, p.inner_chord_m);
     let s = (std::f64::consts::PI / n as f64).sin();
     let (ro_d, ri_d) = (co / (2.0 * s), ci / (2.0 * s));
@@ -270,14 +312,7 @@ fn synchronized_ring(p: &RingParams) -> Result<ModelDoc, String> {
     let j = |ring: &str, k: usize, end: &str| format!("{ring}{}_{end}", k % n);
     let lock = |l: f64| vec![("lock_length_m".to_string(), Param::Num(l))];
     let mut elements = Vec::new();
-    let fix = |joint: String, f: &str| {
-        el(
-            "support",
-            format!("fix_{joint}_{f}"),
-            &[joint],
-            vec![("fix".into(), Param::Text(f.into()))],
-        )
-    };
+    let fix = fix_joint;
     // The inner ring is held concentric with the outer ring (the radial tie system):
     // without it the inner ring could drift sideways, a mechanism that pulley
     // friction excites.
@@ -295,31 +330,7 @@ fn synchronized_ring(p: &RingParams) -> Result<ModelDoc, String> {
         ],
     ));
     if hub {
-        // Centre of the outer bottom joints fixed; O0_b (on the x axis) held at y = 0
-        // against spin; the mean heights of two blocks of 2m consecutive frames
-        // (equal numbers of low and high frames, so their mean stays 0) against tilt.
-        let m = (n / 4).max(1);
-        let block = |from: usize| {
-            (from..from + 2 * m)
-                .map(|k| j("O", k, "b"))
-                .collect::<Vec<_>>()
-        };
-        let centroid = |name: &str, joints: Vec<String>, f: &str| {
-            el(
-                "centroid",
-                name.into(),
-                &joints,
-                vec![("fix".into(), Param::Text(f.into()))],
-            )
-        };
-        elements.push(centroid(
-            "hub_centre",
-            (0..n).map(|k| j("O", k, "b")).collect(),
-            "xyz",
-        ));
-        elements.push(fix(j("O", 0, "b"), "y"));
-        elements.push(centroid("hub_level_a", block(0), "z"));
-        elements.push(centroid("hub_level_b", block(n - m), "z"));
+        elements.extend(hub_mount(n));
     } else {
         let z_frame = 2 * (n / 4).max(2);
         elements.push(fix(j("O", 0, "b"), "xyz"));

@@ -33,8 +33,8 @@
 //! sqrt(c^2 + h^2). With all of them latched the bays are flat, which forces every
 //! radial frame square (the inner chords reach their length only at psi = 0).
 
-use super::super::file::{CableDoc, ElementDoc, JointDoc, ModelDoc};
-use super::ring::{ring_joint_names, RingParams};
+use super::super::file::{CableDoc, ElementDoc, ModelDoc};
+use super::ring::{fix_joint, hub_mount, ring_joints, RingParams};
 use crate::solver::elements::Param;
 use std::f64::consts::PI;
 
@@ -177,25 +177,7 @@ pub fn stowing_ring(p: &RingParams) -> Result<ModelDoc, String> {
     };
     // Held at post O0, the deployed ring is placed where that post starts; held at
     // its hub, the ring keeps its axis.
-    let shift = if post {
-        [
-            x0[0][0] - xd[0][0],
-            x0[0][1] - xd[0][1],
-            x0[0][2] - xd[0][2],
-        ]
-    } else {
-        [0.0; 3]
-    };
-    let joints = ring_joint_names(n)
-        .into_iter()
-        .zip(x0.iter().zip(&xd))
-        .map(|(name, (a, d))| JointDoc {
-            name,
-            position_m: *a,
-            mass_kg: p.joint_mass_kg,
-            reference_m: Some([d[0] + shift[0], d[1] + shift[1], d[2] + shift[2]]),
-        })
-        .collect();
+    let joints = ring_joints(p, &x0, &xd, post);
     let (h, co, ci) = (p.height_m, p.outer_chord_m, p.inner_chord_m);
     let w = ring_depth_m(p);
     let el =
@@ -206,14 +188,7 @@ pub fn stowing_ring(p: &RingParams) -> Result<ModelDoc, String> {
             params,
         };
     let j = |ring: &str, k: usize, end: &str| format!("{ring}{}_{end}", k % n);
-    let fix = |joint: String, f: &str| {
-        el(
-            "support",
-            format!("fix_{joint}_{f}"),
-            vec![joint],
-            vec![("fix".into(), Param::Text(f.into()))],
-        )
-    };
+    let fix = fix_joint;
     let mut elements = Vec::new();
     if post {
         // Post O0 clamped to the boom's end fitting: its foot fixed, its top held
@@ -223,26 +198,7 @@ pub fn stowing_ring(p: &RingParams) -> Result<ModelDoc, String> {
         elements.push(fix(j("O", 0, "t"), "xy"));
         elements.push(fix(j("I", 0, "b"), "y"));
     } else {
-        // Hub: the centre of the outer feet fixed, O0_b at y = 0 against spin, and
-        // the mean heights of two blocks of 2m frames (as many low as high) level.
-        let m = (n / 4).max(1);
-        let centroid = |name: &str, joints: Vec<String>, f: &str| {
-            el(
-                "centroid",
-                name.into(),
-                joints,
-                vec![("fix".into(), Param::Text(f.into()))],
-            )
-        };
-        let block = |from: usize| (from..from + 2 * m).map(|k| j("O", k, "b")).collect();
-        elements.push(centroid(
-            "hub_centre",
-            (0..n).map(|k| j("O", k, "b")).collect(),
-            "xyz",
-        ));
-        elements.push(fix(j("O", 0, "b"), "y"));
-        elements.push(centroid("hub_level_a", block(0), "z"));
-        elements.push(centroid("hub_level_b", block(n - m), "z"));
+        elements.extend(hub_mount(n));
     }
     let lock = |l: f64| vec![("lock_length_m".to_string(), Param::Num(l))];
     for k in 0..n {
