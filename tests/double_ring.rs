@@ -28,6 +28,20 @@ fn deploy(model: Model) -> Simulator {
     sim
 }
 
+/// Mobility at the start with no sleeve latched, and at the reference with all.
+fn mobility_before_and_after(model: &Model) -> (mobility::Mobility, mobility::Mobility) {
+    let free = vec![false; model.elements.len()];
+    let all: Vec<bool> = model
+        .elements
+        .iter()
+        .map(|e| e.lock_gap(&model.x0).is_some())
+        .collect();
+    (
+        mobility::analyze(model, &model.x0, &free),
+        mobility::analyze(model, model.reference.as_ref().unwrap(), &all),
+    )
+}
+
 fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
     ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
 }
@@ -101,14 +115,7 @@ fn folding_lengthens_every_latching_member_monotonically() {
 #[test]
 fn mobility_before_and_after_latching() {
     let model = model_of(&RingParams::synchronized());
-    let free = vec![false; model.elements.len()];
-    let all: Vec<bool> = model
-        .elements
-        .iter()
-        .map(|e| e.lock_gap(&model.x0).is_some())
-        .collect();
-    let before = mobility::analyze(&model, &model.x0, &free);
-    let after = mobility::analyze(&model, model.reference.as_ref().unwrap(), &all);
+    let (before, after) = mobility_before_and_after(&model);
     assert!(
         before.mechanisms >= 1,
         "a deployable ring is a mechanism before latching"
@@ -352,14 +359,7 @@ fn stowing_ring_without_inner_hinges_has_many_mechanisms_before_and_none_after_i
         inner_hinges: false,
         ..RingParams::stowing()
     });
-    let free = vec![false; model.elements.len()];
-    let all: Vec<bool> = model
-        .elements
-        .iter()
-        .map(|e| e.lock_gap(&model.x0).is_some())
-        .collect();
-    let before = mobility::analyze(&model, &model.x0, &free);
-    let after = mobility::analyze(&model, model.reference.as_ref().unwrap(), &all);
+    let (before, after) = mobility_before_and_after(&model);
     assert!(before.mechanisms >= 15, "{} mechanisms", before.mechanisms);
     assert_eq!(after.mechanisms, 0);
     for m in [&before, &after] {
@@ -375,14 +375,8 @@ fn stowing_ring_without_inner_hinges_has_many_mechanisms_before_and_none_after_i
 #[test]
 fn stowing_ring_with_hinges_on_both_rings_is_one_mechanism() {
     let model = model_of(&RingParams::stowing());
-    let free = vec![false; model.elements.len()];
-    let all: Vec<bool> = model
-        .elements
-        .iter()
-        .map(|e| e.lock_gap(&model.x0).is_some())
-        .collect();
-    assert_eq!(mobility::analyze(&model, &model.x0, &free).mechanisms, 1);
-    let after = mobility::analyze(&model, model.reference.as_ref().unwrap(), &all);
+    let (before, after) = mobility_before_and_after(&model);
+    assert_eq!(before.mechanisms, 1);
     assert_eq!(after.mechanisms, 0);
 }
 

@@ -162,6 +162,12 @@ pub fn ring_positions(p: &RingParams, a: f64) -> Result<Vec<[f64; 3]>, String> {
     Ok(out)
 }
 
+/// Notes both rings' model files carry.
+pub(super) const CHORD_UNIT_NOTE: &str =
+    "The paper prints the inner chord as 0.6167 mm; metres are meant.";
+pub(super) const DAMPING_NOTE: &str = "Joint damping 50 N s/m (a model choice: the paper's 15 N on 0.25 kg joints would deploy in well under a second undamped; its 102 s implies heavy dissipation it does not state).";
+pub(super) const NUMBERING_NOTE: &str = "Joint numbering differs from the paper's Fig. 8, which is missing: joints are named by frame and post.";
+
 /// The joints of a ring: names, start positions `x0`, reference positions `xd`
 /// shifted so that joint O0_b keeps its start position when the ring is held at
 /// post O0 (`at_post`); a ring held at its hub keeps its axis.
@@ -487,7 +493,7 @@ fn synchronized_ring(p: &RingParams) -> Result<ModelDoc, String> {
         ),
         notes: vec![
             format!("Outer ring circumradius {ro_d:.4} m (diameter {:.4} m, the paper's 5.0 m aperture), inner {ri_d:.4} m, from the chords.", 2.0 * ro_d),
-            "The paper prints the inner chord as 0.6167 mm; metres are meant.".into(),
+            CHORD_UNIT_NOTE.into(),
             "Frame k: outer post Ok_b-Ok_t and inner post Ik_b-Ik_t (0.5 m) joined at top and bottom by telescopic radial members mounted square to the posts and kept planar: the planar truss element joining the rings; the radial members latch at the ring depth.".into(),
             "Bay k: two posts, a top and a bottom chord, kept planar, and a diagonal sleeve from the low post's bottom to the high post's top; it latches at sqrt(c^2 + h^2).".into(),
             "Folding is the zig-zag shear of the bays (even frames low, odd frames high, both rings alike); the symmetric deployment is a one-parameter family solved in closed form.".into(),
@@ -496,9 +502,9 @@ fn synchronized_ring(p: &RingParams) -> Result<ModelDoc, String> {
             "Two drive cables (outer, inner), each from a motor at frame 0 through every bay diagonal of its ring and back to frame 0, with a pulley at every post joint on the way.".into(),
             "Mount `hub` (default): the centre of the outer bottom joints is fixed, O0_b held at y = 0 against spin, and the mean heights of two blocks of frames against tilt; a symmetric deployment needs no reaction. Mount `frame0`: O0_b fixed, as on a boom.".into(),
             "The inner ring is held concentric with the outer ring (centroid constraint, the radial tie system).".into(),
-            "Joint damping 50 N s/m (a model choice: the paper's 15 N on 0.25 kg joints would deploy in well under a second undamped; its 102 s implies heavy dissipation it does not state).".into(),
+            DAMPING_NOTE.into(),
             "The start is part-folded (outer bays sheared 35 deg; the inner bays fold flat at 44.8 deg, and the fully stowed bundle is singular for this topology).".into(),
-            "Joint numbering differs from the paper's Fig. 8, which is missing: joints are named by frame and post.".into(),
+            NUMBERING_NOTE.into(),
         ],
         dt_s: p.dt_s,
         end_time_s: 600.0,

@@ -34,7 +34,9 @@
 //! radial frame square (the inner chords reach their length only at psi = 0).
 
 use super::super::file::{CableDoc, ElementDoc, ModelDoc};
-use super::ring::{fix_joint, hub_mount, ring_joints, RingParams};
+use super::ring::{
+    fix_joint, hub_mount, ring_joints, RingParams, CHORD_UNIT_NOTE, DAMPING_NOTE, NUMBERING_NOTE,
+};
 use crate::solver::elements::Param;
 use std::f64::consts::PI;
 
@@ -321,7 +323,7 @@ pub fn stowing_ring(p: &RingParams) -> Result<ModelDoc, String> {
         ),
         notes: vec![
             format!("Outer ring circumradius {ro_d:.4} m (diameter {:.4} m, the paper's 5.0 m aperture), inner {ri_d:.4} m, from the chords.", 2.0 * ro_d),
-            "The paper prints the inner chord as 0.6167 mm; metres are meant.".into(),
+            CHORD_UNIT_NOTE.into(),
             "Every quadrilateral is a parallelogram that shears to fold, as AstroMesh-type hoop trusses fold (bay longerons turn until they lie along the posts): outer bays (posts Ok, chords 0.8757 m), inner bays (chords 0.6167 m) and radial frames (outer post, inner post, radial battens of the ring depth).".into(),
             "Outer bays shear in alternating directions around the ring (even frames sink, odd frames rise), inner bays the other way; each radial frame shears so that its inner post rises (even) or sinks (odd).".into(),
             format!("Fold: with the paper's numbers the ring depth {w:.4} m is within 0.06 % of the mean chord {:.4} m, so every panel shears by nearly the same angle and the ring folds to a bundle of parallel posts on its axis. Start: outer bays sheared {} deg, frames {:.2} deg; the farthest joint is {:.3} of its deployed distance from the axis (r_o {:.4} m, r_i {:.4} m).", 0.5 * (co + ci), p.start_deg, st.psi_rad.to_degrees(), extent, st.r_outer_m, st.r_inner_m),
@@ -337,9 +339,9 @@ pub fn stowing_ring(p: &RingParams) -> Result<ModelDoc, String> {
             } else {
                 "Mount `hub`: the centre of the outer feet fixed, O0_b held at y = 0 against spin and the mean heights of two blocks of frames level. The default `post` mount clamps post O0 to a boom instead.".into()
             },
-            "Joint damping 50 N s/m (a model choice: the paper's 15 N on 0.25 kg joints would deploy in well under a second undamped; its 102 s implies heavy dissipation it does not state).".into(),
-            "Today's synchronized ring (square frames, gears at every post, one mechanism) is `generate ring --sync`.".into(),
-            "Joint numbering differs from the paper's Fig. 8, which is missing: joints are named by frame and post.".into(),
+            DAMPING_NOTE.into(),
+            "The synchronized ring (square frames, gears at every post, one mechanism, part-folded start) is `generate ring` (the default; `--sync` names its gears).".into(),
+            NUMBERING_NOTE.into(),
         ],
         dt_s: p.dt_s,
         end_time_s: 600.0,

@@ -26,6 +26,7 @@
 //! and T3 = w.(u x v): T3'' = 2 [w'.(u' x v) + w'.(u x v') + w.(u' x v')];
 //!     Adot Xdot = (alpha/h^2 (T1'' - T2'') + beta/h T3'') / rho0.
 
+use super::hinge_axis::hinge_vectors;
 use super::{at, Constraint, ElementSpec};
 
 #[derive(Debug)]
@@ -90,24 +91,14 @@ impl Constraint for FrameHinge {
         1
     }
     fn residual(&self, x: &[f64], out: &mut [f64]) {
-        let [p, q, r, a] = self.joints;
-        let (u, v, w) = (
-            at(x, q) - at(x, p),
-            at(x, r) - at(x, p),
-            at(x, a) - at(x, p),
-        );
+        let (u, v, w) = hinge_vectors(x, self.joints);
         let h2 = self.h * self.h;
         let g = self.alpha / h2 * (u.dot(&u) * w.dot(&v) - u.dot(&v) * w.dot(&u))
             + self.beta / self.h * w.dot(&u.cross(&v));
         out[0] = g / self.rho0;
     }
     fn jacobian(&self, x: &[f64], out: &mut [f64]) {
-        let [p, q, r, a] = self.joints;
-        let (u, v, w) = (
-            at(x, q) - at(x, p),
-            at(x, r) - at(x, p),
-            at(x, a) - at(x, p),
-        );
+        let (u, v, w) = hinge_vectors(x, self.joints);
         let (ka, kb) = (self.alpha / (self.h * self.h), self.beta / self.h);
         let s = 1.0 / self.rho0;
         let (uu, uv, uw, vw) = (u.dot(&u), u.dot(&v), u.dot(&w), v.dot(&w));
@@ -120,17 +111,8 @@ impl Constraint for FrameHinge {
         }
     }
     fn adot_xdot(&self, x: &[f64], vel: &[f64], out: &mut [f64]) {
-        let [p, q, r, a] = self.joints;
-        let (u, v, w) = (
-            at(x, q) - at(x, p),
-            at(x, r) - at(x, p),
-            at(x, a) - at(x, p),
-        );
-        let (du, dv, dw) = (
-            at(vel, q) - at(vel, p),
-            at(vel, r) - at(vel, p),
-            at(vel, a) - at(vel, p),
-        );
+        let (u, v, w) = hinge_vectors(x, self.joints);
+        let (du, dv, dw) = hinge_vectors(vel, self.joints);
         let t1 = 2.0 * du.dot(&du) * w.dot(&v)
             + 4.0 * u.dot(&du) * (dw.dot(&v) + w.dot(&dv))
             + 2.0 * u.dot(&u) * dw.dot(&dv);

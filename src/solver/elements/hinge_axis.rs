@@ -14,6 +14,17 @@
 //! Adot Xdot = [2 alpha w'.v' + 2 beta/h (w'.(u' x v) + w'.(u x v') + w.(u' x v'))] / rho0.
 
 use super::{at, Constraint, ElementSpec};
+use crate::solver::vec3::Vec3;
+
+/// The post u = X_q - X_p, the body member v = X_r - X_p and the hinged member
+/// w = X_a - X_p of a hinge on joints [p, q, r, a] (positions or velocities).
+pub(super) fn hinge_vectors(x: &[f64], [p, q, r, a]: [usize; 4]) -> (Vec3, Vec3, Vec3) {
+    (
+        at(x, q) - at(x, p),
+        at(x, r) - at(x, p),
+        at(x, a) - at(x, p),
+    )
+}
 
 #[derive(Debug)]
 pub struct HingeAxis {
@@ -79,22 +90,12 @@ impl Constraint for HingeAxis {
         1
     }
     fn residual(&self, x: &[f64], out: &mut [f64]) {
-        let [p, q, r, a] = self.joints;
-        let (u, v, w) = (
-            at(x, q) - at(x, p),
-            at(x, r) - at(x, p),
-            at(x, a) - at(x, p),
-        );
+        let (u, v, w) = hinge_vectors(x, self.joints);
         let n = v * self.alpha + u.cross(&v) * (self.beta / self.h);
         out[0] = w.dot(&n) / self.rho0;
     }
     fn jacobian(&self, x: &[f64], out: &mut [f64]) {
-        let [p, q, r, a] = self.joints;
-        let (u, v, w) = (
-            at(x, q) - at(x, p),
-            at(x, r) - at(x, p),
-            at(x, a) - at(x, p),
-        );
+        let (u, v, w) = hinge_vectors(x, self.joints);
         let s = 1.0 / self.rho0;
         let ga = (v * self.alpha + u.cross(&v) * (self.beta / self.h)) * s;
         let gr = (w * self.alpha + w.cross(&u) * (self.beta / self.h)) * s;
@@ -105,17 +106,8 @@ impl Constraint for HingeAxis {
         }
     }
     fn adot_xdot(&self, x: &[f64], vel: &[f64], out: &mut [f64]) {
-        let [p, q, r, a] = self.joints;
-        let (u, v, w) = (
-            at(x, q) - at(x, p),
-            at(x, r) - at(x, p),
-            at(x, a) - at(x, p),
-        );
-        let (du, dv, dw) = (
-            at(vel, q) - at(vel, p),
-            at(vel, r) - at(vel, p),
-            at(vel, a) - at(vel, p),
-        );
+        let (u, v, w) = hinge_vectors(x, self.joints);
+        let (du, dv, dw) = hinge_vectors(vel, self.joints);
         let bilinear = 2.0 * self.alpha * dw.dot(&dv);
         let trilinear = 2.0 * self.beta / self.h
             * (dw.dot(&du.cross(&v)) + dw.dot(&u.cross(&dv)) + w.dot(&du.cross(&dv)));
