@@ -406,3 +406,43 @@ fn stowing_ring_deploys_from_the_bundle_to_full_lock() {
     });
     assert!(t1 - t0 < 1e-3, "one mechanism: latches from {t0} to {t1} s");
 }
+
+/// `generate ring --stow` writes the stowing ring (what `stowing_ring` builds with
+/// its defaults); a mount it does not have, or --stow with --sync, is bad input
+/// (exit 2) naming the option, and nothing is written.
+#[test]
+fn generate_ring_stow_writes_the_stowing_ring() {
+    let dir = std::env::temp_dir().join(format!("truss-deploy-stow-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let out = dir.join("stow.toml");
+    let gen = |args: &[&str], path: &Path| {
+        std::process::Command::new(env!("CARGO_BIN_EXE_truss-deploy"))
+            .args(["generate", "ring"])
+            .args(args)
+            .arg("-o")
+            .arg(path)
+            .output()
+            .unwrap()
+    };
+    let o = gen(&["--stow"], &out);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(
+        std::fs::read_to_string(&out).unwrap(),
+        ring(&RingParams::stowing()).unwrap().to_toml()
+    );
+    for (args, phrase) in [
+        (&["--stow", "--mount", "frame0"][..], "--mount"),
+        (&["--stow", "--sync"][..], "--sync"),
+    ] {
+        let bad = dir.join("bad.toml");
+        let o = gen(args, &bad);
+        assert_eq!(o.status.code(), Some(2), "{args:?}");
+        assert!(
+            String::from_utf8_lossy(&o.stderr).contains(phrase),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        assert!(!bad.exists(), "{args:?} wrote a file");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
