@@ -26,8 +26,8 @@
 //! and T3 = w.(u x v): T3'' = 2 [w'.(u' x v) + w'.(u x v') + w.(u' x v')];
 //!     Adot Xdot = (alpha/h^2 (T1'' - T2'') + beta/h T3'') / rho0.
 
-use super::hinge_axis::hinge_vectors;
-use super::{at, Constraint, ElementSpec};
+use super::hinge_axis::{hinge_start, hinge_vectors};
+use super::{Constraint, ElementSpec};
 
 #[derive(Debug)]
 pub struct FrameHinge {
@@ -41,34 +41,13 @@ pub struct FrameHinge {
 }
 
 pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, String> {
-    spec.expect_joints(
-        4,
-        "hinge p, post end q, frame member end r, hinged member end a",
-    )?;
-    spec.only_params(&[])?;
-    let [p, q, r, a] = [
-        spec.joints[0],
-        spec.joints[1],
-        spec.joints[2],
-        spec.joints[3],
-    ];
-    let (u, v, w) = (
-        at(x0, q) - at(x0, p),
-        at(x0, r) - at(x0, p),
-        at(x0, a) - at(x0, p),
-    );
-    let (h, rho0) = (u.norm(), v.norm());
-    let n0 = u.cross(&w);
-    if h <= 1e-9 || rho0 <= 1e-9 || n0.norm() <= 1e-9 * h * w.norm() {
-        return Err("the post, the frame member or the hinged member has zero length, or the member lies along the post".into());
-    }
+    let ([p, q, r, a], u, v, _w, h, rho0, n0) = hinge_start(spec, x0, "frame member")?;
     let b2 = u.cross(&v) / h;
     if b2.norm() <= 1e-6 * rho0 {
         return Err(
             "the frame member p-r lies along the post p-q; it cannot carry a hinge axis".into(),
         );
     }
-    let n0 = n0.normalize();
     let b1 = (v * u.dot(&u) - u * u.dot(&v)) / (h * h);
     // b1 and b2 are orthogonal and both square to the post, as n0 is.
     let (alpha, beta) = (b1.dot(&n0) / b1.dot(&b1), b2.dot(&n0) / b2.dot(&b2));
