@@ -95,7 +95,7 @@ fn ring_text(sides: usize, start_deg: f64) -> String {
     ring(&RingParams {
         sides,
         start_deg,
-        ..RingParams::default()
+        ..RingParams::synchronized()
     })
     .expect("valid ring parameters")
     .to_toml()
@@ -233,7 +233,7 @@ fn fixtures() -> Vec<Fixture> {
         ),
         Fixture::new(
             "ring90",
-            &ring_text(90, RingParams::default().start_deg),
+            &ring_text(90, RingParams::synchronized().start_deg),
             MID_STEPS_90,
             &[SolverKind::Sparse],
         ),
@@ -564,7 +564,7 @@ fn latch_steps(g: &mut BenchmarkGroup<WallTime>, case: &LatchCase) {
 fn step(c: &mut Criterion) {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("models/double_ring.toml");
     let ring18 = std::fs::read_to_string(&path).expect("models/double_ring.toml");
-    let ring90 = ring_text(90, RingParams::default().start_deg);
+    let ring90 = ring_text(90, RingParams::synchronized().start_deg);
     let mut g = c.benchmark_group("step");
     g.sample_size(10);
     g.sampling_mode(SamplingMode::Flat);

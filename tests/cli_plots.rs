@@ -108,3 +108,60 @@ fn unknown_joint_is_bad_input_naming_it() {
     assert!(!out.stdout.starts_with(b"model"), "fails before running");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// `--latch-plot` names the hardest latch and the last one as the run's own lock
+/// table has them, and counts the latched sleeves; an unwritable file is bad input
+/// (exit 2) found before the run.
+#[test]
+fn latch_plot_labels_the_hardest_and_the_last_latch() {
+    let dir = temp_dir("latch");
+    let (svg, json) = (dir.join("latches.svg"), dir.join("s.json"));
+    let out = bin()
+        .arg("simulate")
+        .arg(mast())
+        .arg("--latch-plot")
+        .arg(&svg)
+        .arg("--json")
+        .arg(&json)
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let summary: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let locks = summary["locks"].as_array().unwrap();
+    let by = |key: &str| {
+        locks
+            .iter()
+            .max_by(|a, b| {
+                a[key]
+                    .as_f64()
+                    .unwrap()
+                    .total_cmp(&b[key].as_f64().unwrap())
+            })
+            .unwrap()["name"]
+            .as_str()
+            .unwrap()
+            .to_string()
+    };
+    let text = std::fs::read_to_string(&svg).unwrap();
+    assert!(text.starts_with("<svg"));
+    for label in [
+        format!("hardest: {}", by("impulse_ns")),
+        format!("last: {}", by("time_s")),
+        format!("{} of 4 sleeves latched", locks.len()),
+    ] {
+        assert!(text.contains(&label), "the latch plot lacks `{label}`");
+    }
+    let bad = bin()
+        .arg("simulate")
+        .arg(mast())
+        .args(["--latch-plot", "/nonexistent-dir/latches.svg"])
+        .output()
+        .unwrap();
+    assert_eq!(bad.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&bad.stderr).contains("/nonexistent-dir/latches.svg"));
+}

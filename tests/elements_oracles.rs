@@ -322,6 +322,27 @@ fn hinge_axis_fixture() -> Fixture {
     }
 }
 
+fn frame_hinge_fixture() -> Fixture {
+    // hinge p, post end q above it, frame member end r sheared 40 deg from square
+    // (a parallelogram frame), chord end a
+    let (sp, cp) = 40f64.to_radians().sin_cos();
+    let pts = [
+        [2.0, 0.0, 0.0],
+        [2.0, 0.0, 0.5],
+        [2.0 - 0.7 * cp, 0.0, 0.7 * sp],
+        [1.9, 0.8, 0.2],
+    ];
+    let idx = [1, 4, 0, 3];
+    let placed: Vec<(usize, [f64; 3])> = idx.iter().copied().zip(pts).collect();
+    let x0 = layout(6, &placed);
+    Fixture {
+        label: "frame_hinge",
+        spec: spec("frame_hinge", &idx, &[]),
+        x0,
+        size: 1.0,
+    }
+}
+
 fn support_fixture(fix: &'static str) -> Fixture {
     let x0 = layout(3, &[(1, [0.4, -0.7, 1.1])]);
     Fixture {
@@ -346,6 +367,7 @@ fn all_fixtures() -> Vec<Fixture> {
         perpendicular_fixture(),
         centroid_fixture(),
         hinge_axis_fixture(),
+        frame_hinge_fixture(),
         sync_hinge_fixture("both"),
         sync_hinge_fixture("axial"),
         sync_hinge_fixture("radial"),
@@ -587,6 +609,7 @@ fn row_counts_match_the_documented_element_rows() {
         ("perpendicular", 1),
         ("centroid", 2),
         ("hinge_axis", 1),
+        ("frame_hinge", 1),
         ("sync_hinge both", 2),
         ("sync_hinge axial", 1),
         ("sync_hinge radial", 1),
@@ -1152,4 +1175,28 @@ fn direction_hint_never_overrides_real_sliding() {
             );
         }
     }
+}
+
+/// The frame hinge's axis is fixed in the post's body whatever the shear of the
+/// frame member: the chord that satisfies it at 40 deg still does when the frame
+/// member turns (about the frame's normal) to 0 or 70 deg, while `hinge_axis`
+/// (whose body member must stay square) would tilt its axis; turning the chord
+/// about the post breaks it.
+#[test]
+fn frame_hinge_axis_does_not_turn_with_the_frames_shear() {
+    let f = frame_hinge_fixture();
+    let el = f.build();
+    let mut x = f.x0.clone();
+    assert!(residual(el.as_ref(), &x)[0].abs() < 1e-15);
+    for deg in [0.0f64, 20.0, 70.0] {
+        let (s, c) = deg.to_radians().sin_cos();
+        x[0..3].copy_from_slice(&[2.0 - 0.7 * c, 0.0, 0.7 * s]);
+        let r = residual(el.as_ref(), &x)[0];
+        assert!(r.abs() < 1e-14, "{deg} deg: residual {r}");
+    }
+    // the chord turned 5 deg about the post leaves the hinge's plane
+    let (s, c) = 5f64.to_radians().sin_cos();
+    let (dx, dy) = (1.9 - 2.0, 0.8);
+    x[9..12].copy_from_slice(&[2.0 + c * dx - s * dy, s * dx + c * dy, 0.2]);
+    assert!(residual(el.as_ref(), &x)[0].abs() > 1e-2);
 }

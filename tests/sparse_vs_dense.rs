@@ -156,7 +156,7 @@ fn a_nearly_deployed_ring_latches_identically() {
     use truss_deploy::model::generate::ring::{ring, RingParams};
     let text = ring(&RingParams {
         start_deg: 4.0,
-        ..RingParams::default()
+        ..RingParams::synchronized()
     })
     .unwrap()
     .to_toml();
@@ -498,7 +498,7 @@ fn pivot_rank_matches_the_svd_rank() {
             (p.display().to_string(), m, x)
         })
         .collect();
-    let p = RingParams::default();
+    let p = RingParams::synchronized();
     let ring_model = parse(&ring(&p).unwrap().to_toml(), "ring.toml")
         .unwrap()
         .model;
@@ -539,7 +539,7 @@ fn velocities_stay_on_the_constraint_manifold_near_the_flat_state() {
     use truss_deploy::model::generate::ring::{ring, RingParams};
     let text = ring(&RingParams {
         start_deg: 20.0,
-        ..RingParams::default()
+        ..RingParams::synchronized()
     })
     .unwrap()
     .to_toml();

@@ -86,12 +86,20 @@ struct GenerateArgs {
     /// ring: number of sides (6 to 360).
     #[arg(long, default_value_t = generate::ring::RingParams::default().sides)]
     sides: usize,
-    /// ring: synchronizing gears at the post hinges: both, axial, radial or none.
-    #[arg(long, default_value = "both")]
-    sync: String,
-    /// ring: how the ring is held: `hub` (at its centre) or `frame0` (at post O0).
-    #[arg(long, default_value = "hub")]
-    mount: String,
+    /// ring: the synchronized ring (square frames, one mechanism, part-folded start; the
+    /// default); the value names its gears: both (the default), axial, radial or none.
+    #[arg(long, num_args = 0..=1, default_missing_value = "both", conflicts_with = "stow")]
+    sync: Option<String>,
+    /// ring: the stowing ring instead (parallelogram bays and radial frames that shear
+    /// to a bundle, no gears, held at post O0; experimental: it does not yet deploy to
+    /// full lock, see docs/double_ring_stowing.md).
+    #[arg(long)]
+    stow: bool,
+    /// ring: how the ring is held: `hub` (at its centre; the synchronized ring's
+    /// default), `frame0` (synchronized ring, at post O0) or `post` (post O0 clamped to
+    /// a boom; the stowing ring's default).
+    #[arg(long)]
+    mount: Option<String>,
     /// sail: number of bays (1 to 100).
     #[arg(long, default_value_t = generate::sail::SailParams::default().bays)]
     bays: usize,
@@ -111,7 +119,7 @@ struct GenerateArgs {
     #[arg(long, allow_negative_numbers = true)]
     damping: Option<f64>,
     /// Angle at the start (deg): mast, rod angle from the horizontal (default 5); ring, tilt of
-    /// the outer bays' chords, 0 = deployed (default 35; e.g. 1 to study the latch); sail, rod
+    /// the outer bays' chords, 0 = deployed (default 35; 75 with --stow; e.g. 1 to study the latch); sail, rod
     /// angle from the vertical (default 1).
     #[arg(long, allow_negative_numbers = true)]
     start_deg: Option<f64>,
@@ -436,14 +444,20 @@ fn generate_cmd(a: GenerateArgs) -> Result<(), Failure> {
                      --start-deg sets where it starts",
                 ));
             }
-            let d = generate::ring::RingParams::default();
+            let d = if a.stow {
+                generate::ring::RingParams::stowing()
+            } else {
+                generate::ring::RingParams {
+                    sync: a.sync.clone().unwrap_or("both".into()),
+                    ..generate::ring::RingParams::synchronized()
+                }
+            };
             let p = generate::ring::RingParams {
                 sides: a.sides,
                 tension_n: a.tension_n.unwrap_or(d.tension_n),
                 friction_mu: a.mu.unwrap_or(d.friction_mu),
                 damping_n_s_per_m: a.damping.unwrap_or(d.damping_n_s_per_m),
-                sync: a.sync.clone(),
-                mount: a.mount.clone(),
+                mount: a.mount.clone().unwrap_or(d.mount.clone()),
                 start_deg: a.start_deg.unwrap_or(d.start_deg),
                 ..d
             };

@@ -638,6 +638,252 @@ impl FrameBuffer {
     }
 }
 
+/// Where a sleeve sits along the ring: the first number in its name (bay or frame
+/// k of `O_diag{k}`, `R{k}_t`, `S{k}`), and its family, the name without that
+/// number (`O_diag`, `R_t`); names without a number go to position 0.
+fn sleeve_place(name: &str) -> (usize, String) {
+    let start = name.find(|c: char| c.is_ascii_digit());
+    match start {
+        None => (0, name.to_string()),
+        Some(i) => {
+            let len = name[i..]
+                .find(|c: char| !c.is_ascii_digit())
+                .unwrap_or(name.len() - i);
+            let k = name[i..i + len].parse().unwrap_or(0);
+            (k, format!("{}{}", &name[..i], &name[i + len..]))
+        }
+    }
+}
+
+/// `simulate --latch-plot`: each sleeve's latch time (y) against its place around
+/// the ring (x: the bay or frame number in its name), one colour per family of
+/// sleeves, the marker's area proportional to the latch impulse. The hardest
+/// latch and the last one are labelled; sleeves that never latched are crosses on
+/// the top edge.
+pub fn latch_plot(
+    path: &Path,
+    title: &str,
+    sleeves: &[String],
+    locks: &[crate::solver::LockEvent],
+) -> Result<(), String> {
+    let err = drawing(path);
+    let places: Vec<(usize, String)> = sleeves.iter().map(|n| sleeve_place(n)).collect();
+    let mut families: Vec<&str> = Vec::new();
+    for (_, f) in &places {
+        if !families.contains(&f.as_str()) {
+            families.push(f);
+        }
+    }
+    let nf = families.len().max(1);
+    let x_of = |i: usize| {
+        let (k, f) = &places[i];
+        let g = families.iter().position(|x| x == f).unwrap_or(0);
+        *k as f64 + (g as f64 - (nf as f64 - 1.0) / 2.0) * (0.6 / nf as f64)
+    };
+    let latched: Vec<(usize, &crate::solver::LockEvent)> = locks
+        .iter()
+        .filter_map(|l| sleeves.iter().position(|n| *n == l.name).map(|i| (i, l)))
+        .collect();
+    let t_max = latched.iter().map(|(_, l)| l.time_s).fold(0.0, f64::max);
+    let t_min = latched
+        .iter()
+        .map(|(_, l)| l.time_s)
+        .fold(f64::INFINITY, f64::min);
+    let imp_max = latched
+        .iter()
+        .map(|(_, l)| l.impulse_ns)
+        .fold(0.0, f64::max);
+    let k_max = places.iter().map(|p| p.0).max().unwrap_or(0) as f64;
+    let y_hi = if t_max > 0.0 { t_max * 1.12 } else { 1.0 };
+    let (w, h) = (1100u32, 640u32);
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (w, h)).into_drawing_area();
+        root.fill(&WHITE).map_err(&err)?;
+        let spread = if latched.is_empty() {
+            "no latch".to_string()
+        } else {
+            format!(
+                "{} of {} sleeves latched from {:.2} s to {:.2} s",
+                latched.len(),
+                sleeves.len(),
+                t_min,
+                t_max
+            )
+        };
+        let body = root
+            .titled(&format!("{title}: {spread}"), (FONT, 20))
+            .map_err(&err)?;
+        let (main, legend) = body.split_horizontally(w - 210);
+        let mut chart = ChartBuilder::on(&main)
+            .margin(10)
+            .margin_right(20)
+            .x_label_area_size(45)
+            .y_label_area_size(70)
+            .build_cartesian_2d(-0.8..k_max + 0.8, 0.0..y_hi)
+            .map_err(&err)?;
+        let span = y_hi;
+        chart
+            .configure_mesh()
+            .light_line_style(RGBColor(238, 238, 238))
+            .bold_line_style(RGBColor(215, 215, 215))
+            .x_desc("bay / frame number (position around the ring)")
+            .y_desc("latch time (s)")
+            .label_style((FONT, 15))
+            .axis_desc_style((FONT, 17))
+            .x_labels((k_max as usize + 2).min(40))
+            .x_label_formatter(&|v: &f64| format!("{}", v.round() as i64))
+            .y_label_formatter(&move |v: &f64| tick_label(*v, span))
+            .draw()
+            .map_err(&err)?;
+        let radius = |imp: f64| {
+            if imp_max > 0.0 {
+                (3.0 + 14.0 * (imp / imp_max).max(0.0).sqrt()).round() as i32
+            } else {
+                5
+            }
+        };
+        for (i, l) in &latched {
+            let g = families
+                .iter()
+                .position(|x| *x == places[*i].1)
+                .unwrap_or(0);
+            let c = PALETTE[g % PALETTE.len()];
+            chart
+                .draw_series(std::iter::once(Circle::new(
+                    (x_of(*i), l.time_s),
+                    radius(l.impulse_ns),
+                    c.mix(0.55).filled(),
+                )))
+                .map_err(&err)?;
+            chart
+                .draw_series(std::iter::once(Circle::new(
+                    (x_of(*i), l.time_s),
+                    radius(l.impulse_ns),
+                    c.stroke_width(1),
+                )))
+                .map_err(&err)?;
+        }
+        for i in (0..sleeves.len()).filter(|i| !latched.iter().any(|(j, _)| j == i)) {
+            chart
+                .draw_series(std::iter::once(Cross::new(
+                    (x_of(i), y_hi * 0.985),
+                    6,
+                    RGBColor(0, 0, 0).stroke_width(2),
+                )))
+                .map_err(&err)?;
+        }
+        let hardest = latched
+            .iter()
+            .max_by(|a, b| a.1.impulse_ns.total_cmp(&b.1.impulse_ns));
+        let last = latched
+            .iter()
+            .max_by(|a, b| a.1.time_s.total_cmp(&b.1.time_s));
+        let mut labels = Vec::new();
+        if let Some((i, l)) = hardest {
+            labels.push((
+                *i,
+                l.time_s,
+                format!(
+                    "hardest: {} {:.3} N s at {:.2} s",
+                    l.name, l.impulse_ns, l.time_s
+                ),
+            ));
+        }
+        if let Some((i, l)) = last {
+            labels.push((
+                *i,
+                l.time_s,
+                format!("last: {} at {:.2} s", l.name, l.time_s),
+            ));
+        }
+        for (n, (i, t, text)) in labels.iter().enumerate() {
+            let x = x_of(*i);
+            let right = x < k_max / 2.0;
+            let (dx, anchor) = if right {
+                (0.5, HPos::Left)
+            } else {
+                (-0.5, HPos::Right)
+            };
+            let ty = (t + y_hi * (0.045 + 0.05 * n as f64)).min(y_hi * 0.95);
+            chart
+                .draw_series(std::iter::once(PathElement::new(
+                    vec![(x, *t), (x + dx, ty)],
+                    RGBColor(0, 0, 0).stroke_width(1),
+                )))
+                .map_err(&err)?;
+            chart
+                .draw_series(std::iter::once(Text::new(
+                    text.clone(),
+                    (x + dx, ty),
+                    style(15, anchor, VPos::Center),
+                )))
+                .map_err(&err)?;
+        }
+        // Legend: families, impulse scale, never latched.
+        let mut y = 40;
+        legend
+            .draw(&Text::new(
+                "sleeves",
+                (10, y),
+                style(16, HPos::Left, VPos::Center),
+            ))
+            .map_err(&err)?;
+        for (g, f) in families.iter().enumerate() {
+            y += 26;
+            let c = PALETTE[g % PALETTE.len()];
+            legend
+                .draw(&Circle::new((20, y), 7, c.mix(0.55).filled()))
+                .map_err(&err)?;
+            legend
+                .draw(&Text::new(
+                    f.to_string(),
+                    (36, y),
+                    style(15, HPos::Left, VPos::Center),
+                ))
+                .map_err(&err)?;
+        }
+        y += 40;
+        legend
+            .draw(&Text::new(
+                "area ~ impulse",
+                (10, y),
+                style(15, HPos::Left, VPos::Center),
+            ))
+            .map_err(&err)?;
+        for frac in [1.0, 0.25] {
+            y += 40;
+            legend
+                .draw(&Circle::new(
+                    (24, y),
+                    radius(frac * imp_max),
+                    RGBColor(90, 90, 90).stroke_width(1),
+                ))
+                .map_err(&err)?;
+            legend
+                .draw(&Text::new(
+                    format!("{:.3} N s", frac * imp_max),
+                    (48, y),
+                    style(14, HPos::Left, VPos::Center),
+                ))
+                .map_err(&err)?;
+        }
+        y += 40;
+        legend
+            .draw(&Cross::new((20, y), 6, RGBColor(0, 0, 0).stroke_width(2)))
+            .map_err(&err)?;
+        legend
+            .draw(&Text::new(
+                "never latched",
+                (36, y),
+                style(15, HPos::Left, VPos::Center),
+            ))
+            .map_err(&err)?;
+        root.present().map_err(&err)?;
+    }
+    write_svg(path, svg)
+}
+
 fn to_points(x: &[f64]) -> Vec<[f64; 3]> {
     x.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect()
 }
@@ -799,6 +1045,14 @@ mod tests {
         assert_eq!(tick_label(-0.0001, 0.5), "0.00");
         assert_eq!(tick_label(0.25, 0.5), "0.25");
         assert_eq!(tick_label(0.5, 3.0), "0.5");
+    }
+
+    #[test]
+    fn sleeves_are_placed_by_the_number_in_their_name() {
+        assert_eq!(sleeve_place("O_diag12"), (12, "O_diag".into()));
+        assert_eq!(sleeve_place("R3_t"), (3, "R_t".into()));
+        assert_eq!(sleeve_place("S4"), (4, "S".into()));
+        assert_eq!(sleeve_place("latch"), (0, "latch".into()));
     }
 
     #[test]

@@ -47,6 +47,10 @@ pub struct SimulateArgs {
     /// Draw the truss at 6 instants of the deployment in a 3-D projection (SVG).
     #[arg(long, value_name = "FILE.svg")]
     snapshots: Option<PathBuf>,
+    /// Draw each sleeve's latch time against its place around the ring, marker area
+    /// by impulse, the hardest and the last latch labelled (SVG).
+    #[arg(long, value_name = "FILE.svg")]
+    latch_plot: Option<PathBuf>,
     #[arg(long, value_enum, default_value_t = SolverArg::Sparse)]
     solver: SolverArg,
     /// Record the run as a ROS 2 MCAP file: the node's topics, log time = simulation time.
@@ -195,6 +199,7 @@ pub fn run(a: SimulateArgs) -> Result<(), Failure> {
         ("--json", &a.json),
         ("--plot", &a.plot),
         ("--snapshots", &a.snapshots),
+        ("--latch-plot", &a.latch_plot),
     ]
     .into_iter()
     .filter_map(|(o, p)| p.as_deref().map(|p| (o, p)))
@@ -385,6 +390,16 @@ pub fn run(a: SimulateArgs) -> Result<(), Failure> {
     let locks: Vec<(String, f64)> = s.locks.iter().map(|l| (l.name.clone(), l.time_s)).collect();
     if let Err(e) = rec.finish(m, &locks) {
         write_errors.push(e);
+    }
+    if let Some(p) = &a.latch_plot {
+        let sleeves: Vec<String> = m
+            .locks
+            .iter()
+            .map(|&e| m.elements[e].name().to_string())
+            .collect();
+        if let Err(e) = plot::latch_plot(p, &format!("{}: latches", m.name), &sleeves, &s.locks) {
+            write_errors.push(e);
+        }
     }
     if !write_errors.is_empty() && reason.exit_code() == 0 {
         reason = StopReason::Error;

@@ -637,7 +637,13 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
     summary.rejected_commands = book.rejected;
     summary.stop_reason = stop_reason;
     // Final lock status so late joiners see the end state.
-    let last = view.lock_status(&sim, &book, ctl.paused(), sim_stamp(sim.state().t_s), &a.frame_id);
+    let last = view.lock_status(
+        &sim,
+        &book,
+        ctl.paused(),
+        sim_stamp(sim.state().t_s),
+        &a.frame_id,
+    );
     if let Some(mut r) = rec.take() {
         let w = r
             .write(

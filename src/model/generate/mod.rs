@@ -238,4 +238,5 @@ pub fn mast(p: &MastParams) -> Result<ModelDoc, String> {
 }
 
 pub mod ring;
+pub mod ring_stowing;
 pub mod sail;

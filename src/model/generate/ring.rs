@@ -53,11 +53,23 @@ pub struct RingParams {
     pub sync: String,
     /// Passive latching cross-diagonals in the cells between the rings.
     pub cell_diagonals: bool,
-    /// "hub": held at its centre (symmetric deployment); "frame0": held at post O0.
+    /// Mount. Stowing ring: "post" (post O0 clamped to a boom, the default) or "hub".
+    /// Synchronized ring: "hub" (held at its centre) or "frame0" (held at post O0).
     pub mount: String,
+    /// Today's synchronized ring (`generate ring --sync`): square radial frames with
+    /// telescopic radial members, chord hinges at every post and the gears of `sync`;
+    /// one mechanism, every latch at one instant, and it folds only part-way.
+    /// `false` is the stowing ring (`ring_stowing::stowing_ring`).
+    pub synchronized: bool,
+    /// Stowing ring: inner chords on revolute hinges fixed in the inner posts'
+    /// fittings (true: one mechanism, it deploys to full lock) or on ball joints
+    /// (false: sides - 2 mechanisms, but the inner ring then flattens ahead of the
+    /// outer one and the ring locks up short of deployed; see ring_stowing).
+    pub inner_hinges: bool,
 }
 
 impl Default for RingParams {
+    /// Today's synchronized ring (the bundled `models/double_ring.toml`).
     fn default() -> Self {
         RingParams {
             sides: 18,
@@ -74,6 +86,30 @@ impl Default for RingParams {
             sync: "both".into(),
             cell_diagonals: true,
             mount: "hub".into(),
+            synchronized: true,
+            inner_hinges: true,
+        }
+    }
+}
+
+impl RingParams {
+    /// The synchronized ring: square frames, gears at both post hinges, passive cell
+    /// diagonals, hub mount, 35 deg start (`generate ring --sync`; today the default).
+    /// Tests about the synchronized ring use this, so they keep testing it when
+    /// the default changes.
+    pub fn synchronized() -> Self {
+        RingParams::default()
+    }
+    /// The stowing ring (`generate ring --stow`, see `ring_stowing`): parallelogram
+    /// bays and radial frames that shear to a bundle, no gears, held at post O0.
+    pub fn stowing() -> Self {
+        RingParams {
+            start_deg: 75.0,
+            sync: "none".into(),
+            cell_diagonals: false,
+            mount: "post".into(),
+            synchronized: false,
+            ..RingParams::default()
         }
     }
 }
@@ -126,6 +162,73 @@ pub fn ring_positions(p: &RingParams, a: f64) -> Result<Vec<[f64; 3]>, String> {
     Ok(out)
 }
 
+/// Notes both rings' model files carry.
+pub(super) const CHORD_UNIT_NOTE: &str =
+    "The paper prints the inner chord as 0.6167 mm; metres are meant.";
+pub(super) const DAMPING_NOTE: &str = "Joint damping 50 N s/m (a model choice: the paper's 15 N on 0.25 kg joints would deploy in well under a second undamped; its 102 s implies heavy dissipation it does not state).";
+pub(super) const NUMBERING_NOTE: &str = "Joint numbering differs from the paper's Fig. 8, which is missing: joints are named by frame and post.";
+
+/// The joints of a ring: names, start positions `x0`, reference positions `xd`
+/// shifted so that joint O0_b keeps its start position when the ring is held at
+/// post O0 (`at_post`); a ring held at its hub keeps its axis.
+pub(super) fn ring_joints(
+    p: &RingParams,
+    x0: &[[f64; 3]],
+    xd: &[[f64; 3]],
+    at_post: bool,
+) -> Vec<JointDoc> {
+    let shift = if at_post {
+        [
+            x0[0][0] - xd[0][0],
+            x0[0][1] - xd[0][1],
+            x0[0][2] - xd[0][2],
+        ]
+    } else {
+        [0.0; 3]
+    };
+    ring_joint_names(p.sides)
+        .into_iter()
+        .zip(x0.iter().zip(xd))
+        .map(|(name, (a, d))| JointDoc {
+            name,
+            position_m: *a,
+            mass_kg: p.joint_mass_kg,
+            reference_m: Some([d[0] + shift[0], d[1] + shift[1], d[2] + shift[2]]),
+        })
+        .collect()
+}
+
+/// A support fixing coordinates `fix` of one joint.
+pub(super) fn fix_joint(joint: String, fix: &str) -> ElementDoc {
+    ElementDoc {
+        kind: "support".into(),
+        name: format!("fix_{joint}_{fix}"),
+        joints: vec![joint],
+        params: vec![("fix".into(), Param::Text(fix.into()))],
+    }
+}
+
+/// Hub mount: the centre of the outer bottom joints fixed; O0_b (on the x axis)
+/// held at y = 0 against spin; the mean heights of two blocks of 2m consecutive
+/// frames (equal numbers of low and high frames, so their mean stays 0) against tilt.
+pub(super) fn hub_mount(n: usize) -> Vec<ElementDoc> {
+    let ob = |k: usize| format!("O{}_b", k % n);
+    let m = (n / 4).max(1);
+    let centroid = |name: &str, joints: Vec<String>, f: &str| ElementDoc {
+        kind: "centroid".into(),
+        name: name.into(),
+        joints,
+        params: vec![("fix".into(), Param::Text(f.into()))],
+    };
+    let block = |from: usize| (from..from + 2 * m).map(ob).collect::<Vec<_>>();
+    vec![
+        centroid("hub_centre", (0..n).map(ob).collect(), "xyz"),
+        fix_joint(ob(0), "y"),
+        centroid("hub_level_a", block(0), "z"),
+        centroid("hub_level_b", block(n - m), "z"),
+    ]
+}
+
 /// Path of the drive cable of one ring ("O" or "I"): from the motor at frame 0
 /// through every bay diagonal (low bottom -> high top -> next low bottom ...) and
 /// back to frame 0, where its end is anchored.
@@ -135,7 +238,19 @@ pub fn ring_cable_path(n: usize, ring: &str) -> Vec<String> {
         .collect()
 }
 
+/// The double ring: the stowing ring, or today's synchronized ring with
+/// `synchronized` set.
 pub fn ring(p: &RingParams) -> Result<ModelDoc, String> {
+    check_params(p)?;
+    if p.synchronized {
+        synchronized_ring(p)
+    } else {
+        super::ring_stowing::stowing_ring(p)
+    }
+}
+
+/// Checks shared by both rings.
+fn check_params(p: &RingParams) -> Result<(), String> {
     let n = p.sides;
     if !(6..=360).contains(&n) || n % 2 != 0 {
         return Err(format!("--sides {n}: a double ring has an even number of sides from 6 to 360 (the bays fold in a zig-zag)"));
@@ -162,6 +277,17 @@ pub fn ring(p: &RingParams) -> Result<ModelDoc, String> {
         p.friction_mu,
         p.damping_n_s_per_m,
     )?;
+    Ok(())
+}
+
+fn synchronized_ring(p: &RingParams) -> Result<ModelDoc, String> {
+    let n = p.sides;
+    if p.sync != "none" && !["both", "axial", "radial"].contains(&p.sync.as_str()) {
+        return Err(format!(
+            "--sync {}: use both, axial, radial or none",
+            p.sync
+        ));
+    }
     let a0 = 0.5 * p.outer_chord_m * p.start_deg.to_radians().sin();
     let x0 = ring_positions(p, a0)?;
     let xd = ring_positions(p, 0.0)?;
@@ -177,26 +303,7 @@ pub fn ring(p: &RingParams) -> Result<ModelDoc, String> {
             ))
         }
     };
-    let shift = if hub {
-        [0.0; 3]
-    } else {
-        [
-            x0[0][0] - xd[0][0],
-            x0[0][1] - xd[0][1],
-            x0[0][2] - xd[0][2],
-        ]
-    };
-    let names = ring_joint_names(n);
-    let joints = names
-        .iter()
-        .zip(x0.iter().zip(&xd))
-        .map(|(nm, (a, d))| JointDoc {
-            name: nm.clone(),
-            position_m: *a,
-            mass_kg: p.joint_mass_kg,
-            reference_m: Some([d[0] + shift[0], d[1] + shift[1], d[2] + shift[2]]),
-        })
-        .collect();
+    let joints = ring_joints(p, &x0, &xd, !hub);
     let (h, co, ci) = (p.height_m, p.outer_chord_m, p.inner_chord_m);
     let s = (std::f64::consts::PI / n as f64).sin();
     let (ro_d, ri_d) = (co / (2.0 * s), ci / (2.0 * s));
@@ -211,14 +318,7 @@ pub fn ring(p: &RingParams) -> Result<ModelDoc, String> {
     let j = |ring: &str, k: usize, end: &str| format!("{ring}{}_{end}", k % n);
     let lock = |l: f64| vec![("lock_length_m".to_string(), Param::Num(l))];
     let mut elements = Vec::new();
-    let fix = |joint: String, f: &str| {
-        el(
-            "support",
-            format!("fix_{joint}_{f}"),
-            &[joint],
-            vec![("fix".into(), Param::Text(f.into()))],
-        )
-    };
+    let fix = fix_joint;
     // The inner ring is held concentric with the outer ring (the radial tie system):
     // without it the inner ring could drift sideways, a mechanism that pulley
     // friction excites.
@@ -236,31 +336,7 @@ pub fn ring(p: &RingParams) -> Result<ModelDoc, String> {
         ],
     ));
     if hub {
-        // Centre of the outer bottom joints fixed; O0_b (on the x axis) held at y = 0
-        // against spin; the mean heights of two blocks of 2m consecutive frames
-        // (equal numbers of low and high frames, so their mean stays 0) against tilt.
-        let m = (n / 4).max(1);
-        let block = |from: usize| {
-            (from..from + 2 * m)
-                .map(|k| j("O", k, "b"))
-                .collect::<Vec<_>>()
-        };
-        let centroid = |name: &str, joints: Vec<String>, f: &str| {
-            el(
-                "centroid",
-                name.into(),
-                &joints,
-                vec![("fix".into(), Param::Text(f.into()))],
-            )
-        };
-        elements.push(centroid(
-            "hub_centre",
-            (0..n).map(|k| j("O", k, "b")).collect(),
-            "xyz",
-        ));
-        elements.push(fix(j("O", 0, "b"), "y"));
-        elements.push(centroid("hub_level_a", block(0), "z"));
-        elements.push(centroid("hub_level_b", block(n - m), "z"));
+        elements.extend(hub_mount(n));
     } else {
         let z_frame = 2 * (n / 4).max(2);
         elements.push(fix(j("O", 0, "b"), "xyz"));
@@ -417,7 +493,7 @@ pub fn ring(p: &RingParams) -> Result<ModelDoc, String> {
         ),
         notes: vec![
             format!("Outer ring circumradius {ro_d:.4} m (diameter {:.4} m, the paper's 5.0 m aperture), inner {ri_d:.4} m, from the chords.", 2.0 * ro_d),
-            "The paper prints the inner chord as 0.6167 mm; metres are meant.".into(),
+            CHORD_UNIT_NOTE.into(),
             "Frame k: outer post Ok_b-Ok_t and inner post Ik_b-Ik_t (0.5 m) joined at top and bottom by telescopic radial members mounted square to the posts and kept planar: the planar truss element joining the rings; the radial members latch at the ring depth.".into(),
             "Bay k: two posts, a top and a bottom chord, kept planar, and a diagonal sleeve from the low post's bottom to the high post's top; it latches at sqrt(c^2 + h^2).".into(),
             "Folding is the zig-zag shear of the bays (even frames low, odd frames high, both rings alike); the symmetric deployment is a one-parameter family solved in closed form.".into(),
@@ -426,9 +502,9 @@ pub fn ring(p: &RingParams) -> Result<ModelDoc, String> {
             "Two drive cables (outer, inner), each from a motor at frame 0 through every bay diagonal of its ring and back to frame 0, with a pulley at every post joint on the way.".into(),
             "Mount `hub` (default): the centre of the outer bottom joints is fixed, O0_b held at y = 0 against spin, and the mean heights of two blocks of frames against tilt; a symmetric deployment needs no reaction. Mount `frame0`: O0_b fixed, as on a boom.".into(),
             "The inner ring is held concentric with the outer ring (centroid constraint, the radial tie system).".into(),
-            "Joint damping 50 N s/m (a model choice: the paper's 15 N on 0.25 kg joints would deploy in well under a second undamped; its 102 s implies heavy dissipation it does not state).".into(),
+            DAMPING_NOTE.into(),
             "The start is part-folded (outer bays sheared 35 deg; the inner bays fold flat at 44.8 deg, and the fully stowed bundle is singular for this topology).".into(),
-            "Joint numbering differs from the paper's Fig. 8, which is missing: joints are named by frame and post.".into(),
+            NUMBERING_NOTE.into(),
         ],
         dt_s: p.dt_s,
         end_time_s: 600.0,

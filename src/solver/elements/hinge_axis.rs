@@ -14,6 +14,17 @@
 //! Adot Xdot = [2 alpha w'.v' + 2 beta/h (w'.(u' x v) + w'.(u x v') + w.(u' x v'))] / rho0.
 
 use super::{at, Constraint, ElementSpec};
+use crate::solver::vec3::Vec3;
+
+/// The post u = X_q - X_p, the body member v = X_r - X_p and the hinged member
+/// w = X_a - X_p of a hinge on joints [p, q, r, a] (positions or velocities).
+pub(super) fn hinge_vectors(x: &[f64], [p, q, r, a]: [usize; 4]) -> (Vec3, Vec3, Vec3) {
+    (
+        at(x, q) - at(x, p),
+        at(x, r) - at(x, p),
+        at(x, a) - at(x, p),
+    )
+}
 
 #[derive(Debug)]
 pub struct HingeAxis {
@@ -26,29 +37,36 @@ pub struct HingeAxis {
     rho0: f64,
 }
 
-pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, String> {
+/// A hinge's joints [p, q, r, a] from its spec, the vectors u, v, w of
+/// `hinge_vectors` at the start, the post length h = |u|, rho0 = |v| and the unit
+/// hinge axis n0 = u x w / |u x w|; `member` names p-r in the error messages.
+pub(super) fn hinge_start(
+    spec: &ElementSpec,
+    x0: &[f64],
+    member: &str,
+) -> Result<([usize; 4], Vec3, Vec3, Vec3, f64, f64, Vec3), String> {
     spec.expect_joints(
         4,
-        "hinge p, post end q, body member end r, hinged member end a",
+        &format!("hinge p, post end q, {member} end r, hinged member end a"),
     )?;
     spec.only_params(&[])?;
-    let [p, q, r, a] = [
+    let joints = [
         spec.joints[0],
         spec.joints[1],
         spec.joints[2],
         spec.joints[3],
     ];
-    let (u, v, w) = (
-        at(x0, q) - at(x0, p),
-        at(x0, r) - at(x0, p),
-        at(x0, a) - at(x0, p),
-    );
+    let (u, v, w) = hinge_vectors(x0, joints);
     let (h, rho0) = (u.norm(), v.norm());
     let n0 = u.cross(&w);
     if h <= 1e-9 || rho0 <= 1e-9 || n0.norm() <= 1e-9 * h * w.norm() {
-        return Err("the post, the body member or the hinged member has zero length, or the member lies along the post".into());
+        return Err(format!("the post, the {member} or the hinged member has zero length, or the member lies along the post"));
     }
-    let n0 = n0.normalize();
+    Ok((joints, u, v, w, h, rho0, n0.normalize()))
+}
+
+pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, String> {
+    let ([p, q, r, a], u, v, _w, h, rho0, n0) = hinge_start(spec, x0, "body member")?;
     // n0 = alpha v + beta (u x v)/h, least squares on the two body vectors
     let (b1, b2) = (v, u.cross(&v) / h);
     let (g11, g12, g22) = (b1.dot(&b1), b1.dot(&b2), b2.dot(&b2));
@@ -79,22 +97,12 @@ impl Constraint for HingeAxis {
         1
     }
     fn residual(&self, x: &[f64], out: &mut [f64]) {
-        let [p, q, r, a] = self.joints;
-        let (u, v, w) = (
-            at(x, q) - at(x, p),
-            at(x, r) - at(x, p),
-            at(x, a) - at(x, p),
-        );
+        let (u, v, w) = hinge_vectors(x, self.joints);
         let n = v * self.alpha + u.cross(&v) * (self.beta / self.h);
         out[0] = w.dot(&n) / self.rho0;
     }
     fn jacobian(&self, x: &[f64], out: &mut [f64]) {
-        let [p, q, r, a] = self.joints;
-        let (u, v, w) = (
-            at(x, q) - at(x, p),
-            at(x, r) - at(x, p),
-            at(x, a) - at(x, p),
-        );
+        let (u, v, w) = hinge_vectors(x, self.joints);
         let s = 1.0 / self.rho0;
         let ga = (v * self.alpha + u.cross(&v) * (self.beta / self.h)) * s;
         let gr = (w * self.alpha + w.cross(&u) * (self.beta / self.h)) * s;
@@ -105,17 +113,8 @@ impl Constraint for HingeAxis {
         }
     }
     fn adot_xdot(&self, x: &[f64], vel: &[f64], out: &mut [f64]) {
-        let [p, q, r, a] = self.joints;
-        let (u, v, w) = (
-            at(x, q) - at(x, p),
-            at(x, r) - at(x, p),
-            at(x, a) - at(x, p),
-        );
-        let (du, dv, dw) = (
-            at(vel, q) - at(vel, p),
-            at(vel, r) - at(vel, p),
-            at(vel, a) - at(vel, p),
-        );
+        let (u, v, w) = hinge_vectors(x, self.joints);
+        let (du, dv, dw) = hinge_vectors(vel, self.joints);
         let bilinear = 2.0 * self.alpha * dw.dot(&dv);
         let trilinear = 2.0 * self.beta / self.h
             * (dw.dot(&du.cross(&v)) + dw.dot(&u.cross(&dv)) + w.dot(&du.cross(&dv)));

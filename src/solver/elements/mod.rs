@@ -19,6 +19,7 @@ pub mod angulated_scissor;
 pub mod bar;
 pub mod centroid;
 pub mod coplanar;
+pub mod frame_hinge;
 pub mod hinge_axis;
 pub mod perpendicular;
 pub mod plate;
@@ -240,6 +241,11 @@ pub const REGISTRY: &[(&str, &str, Builder)] = &[
         "hinge_axis",
         "revolute hinge fixed in a post's body: member p-a turns only about it (joints p, q, r, a)",
         hinge_axis::build,
+    ),
+    (
+        "frame_hinge",
+        "revolute hinge fixed in a post's body whose frame member p-r shears: member p-a turns only about it (joints p, q, r, a)",
+        frame_hinge::build,
     ),
     (
         "centroid",

@@ -1,0 +1,353 @@
+//! The stowing double ring: the default `generate ring` and `models/double_ring.toml`.
+//!
+//! Every quadrilateral of the truss is a parallelogram that shears (the paper's
+//! quadrilateral element with its diagonal sleeve; AstroMesh-type hoop trusses fold
+//! the same way: the longerons of each bay turn until they lie along the posts):
+//!
+//! - Outer bay k (posts Ok, Ok+1, chords c_o): even frames sink by a_o, odd frames
+//!   rise by a_o (alternating shear around the closed ring), so the chord tilts by
+//!   phi with a_o = c_o sin(phi) / 2.
+//! - Inner bay k (chords c_i) shears the other way: a_i < 0 (even inner posts high).
+//! - Radial frame k (outer post Ok, inner post Ik, radial battens of fixed length w at
+//!   top and bottom) is a parallelogram sheared by psi: the inner post sits
+//!   delta = w sin(psi) above (even) or below (odd) the outer one, at a horizontal
+//!   distance w cos(psi), so a_i = a_o - w sin(psi).
+//! - The symmetric fold is the one-parameter family solving, for given a_o,
+//!       r_o(a_o) - r_i(a_i) = w cos(psi),  r = sqrt(c^2 - 4 a^2) / (2 sin(pi/n)),
+//!   for psi on the branch with a_i < 0 (`fold_state`, bisection). With the paper's
+//!   numbers the ring depth w = (c_o - c_i) / (2 sin(pi/n)) = 0.7458 m is within
+//!   0.06 % of the mean chord (c_o + c_i)/2 = 0.7462 m, and then psi = phi and the
+//!   inner bays shear by -phi: the family runs from deployed (phi = 0) to a bundle
+//!   of parallel posts on the ring's axis (phi = 90 deg). With other side counts the
+//!   depth is not the mean chord and the fold stops short (36 sides: ~70 deg).
+//!
+//! Joints and hinges: the outer chords hang on revolute hinges whose axes are fixed
+//! in the outer post's fitting (`frame_hinge`: the post and the normal of its radial
+//! frame span the fitting, so the hinge axis does not turn as the frame shears).
+//! The inner chords end in ball joints. With revolute hinges on both rings the
+//! double ring is a one-mechanism linkage (the radial depth then has to be the same
+//! at every frame: every bay shears alike); with the inner ends free each radial
+//! frame shears on its own, and the ring has sides - 3 deployment mechanisms.
+//!
+//! Latches: the diagonal sleeves of the outer and inner bays latch at
+//! sqrt(c^2 + h^2). With all of them latched the bays are flat, which forces every
+//! radial frame square (the inner chords reach their length only at psi = 0).
+
+use super::super::file::{CableDoc, ElementDoc, ModelDoc};
+use super::ring::{
+    fix_joint, hub_mount, ring_joints, RingParams, CHORD_UNIT_NOTE, DAMPING_NOTE, NUMBERING_NOTE,
+};
+use crate::solver::elements::Param;
+use std::f64::consts::PI;
+
+/// The symmetric folded state at outer chord tilt phi (rad).
+#[derive(Clone, Copy, Debug)]
+pub struct FoldState {
+    /// Zig-zag offsets of the outer and inner posts (m); a_i < 0 when folded.
+    pub a_outer_m: f64,
+    pub a_inner_m: f64,
+    /// Shear of the radial frames (rad).
+    pub psi_rad: f64,
+    /// Radii of the outer and inner posts (m).
+    pub r_outer_m: f64,
+    pub r_inner_m: f64,
+}
+
+/// Ring depth w: the radial battens' length, (c_o - c_i) / (2 sin(pi/n)).
+pub fn ring_depth_m(p: &RingParams) -> f64 {
+    (p.outer_chord_m - p.inner_chord_m) / (2.0 * (PI / p.sides as f64).sin())
+}
+
+/// Solves the symmetric fold at outer chord tilt phi (rad) on the stowing branch
+/// (inner bays sheared the other way, a_i <= 0), by bisection on psi of
+/// f(psi) = r_o - r_i(a_o - w sin psi) - w cos psi, from psi where a_i = 0 (f <= 0)
+/// to where the inner chord is vertical (r_i = 0, f >= 0).
+pub fn fold_state(p: &RingParams, phi: f64) -> Result<FoldState, String> {
+    let s = (PI / p.sides as f64).sin();
+    let (co, ci) = (p.outer_chord_m, p.inner_chord_m);
+    let w = ring_depth_m(p);
+    let a_o = 0.5 * co * phi.sin();
+    let r_o = (co * co - 4.0 * a_o * a_o).max(0.0).sqrt() / (2.0 * s);
+    let r_i = |psi: f64| {
+        let a_i = a_o - w * psi.sin();
+        (ci * ci - 4.0 * a_i * a_i).max(0.0).sqrt() / (2.0 * s)
+    };
+    let f = |psi: f64| r_o - r_i(psi) - w * psi.cos();
+    if phi == 0.0 {
+        return Ok(FoldState {
+            a_outer_m: 0.0,
+            a_inner_m: 0.0,
+            psi_rad: 0.0,
+            r_outer_m: r_o,
+            r_inner_m: r_o - w,
+        });
+    }
+    let lo0 = (a_o / w).min(1.0).asin();
+    let hi0 = ((a_o + 0.5 * ci) / w).min(1.0).asin();
+    let (mut lo, mut hi) = (lo0, hi0);
+    if !(f(lo) <= 0.0 && f(hi) >= 0.0) {
+        return Err(format!(
+            "a {}-sided ring with chords {co} m and {ci} m (depth {w:.4} m) does not fold to {:.1} deg: its inner bays reach vertical first; use a smaller --start-deg",
+            p.sides,
+            phi.to_degrees()
+        ));
+    }
+    for _ in 0..200 {
+        let mid = 0.5 * (lo + hi);
+        if f(mid) <= 0.0 {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    let psi = 0.5 * (lo + hi);
+    Ok(FoldState {
+        a_outer_m: a_o,
+        a_inner_m: a_o - w * psi.sin(),
+        psi_rad: psi,
+        r_outer_m: r_o,
+        r_inner_m: r_i(psi),
+    })
+}
+
+/// Joint positions of the symmetric fold at outer chord tilt phi (rad), ring axis
+/// along z through the origin, in the order of `ring_joint_names`.
+pub fn stowing_positions(p: &RingParams, phi: f64) -> Result<Vec<[f64; 3]>, String> {
+    let st = fold_state(p, phi)?;
+    let n = p.sides;
+    let h = p.height_m;
+    let mut out = Vec::with_capacity(4 * n);
+    for k in 0..n {
+        let th = 2.0 * PI * k as f64 / n as f64;
+        let sign = if k % 2 == 0 { -1.0 } else { 1.0 };
+        let (c, s) = (th.cos(), th.sin());
+        let (zo, zi) = (sign * st.a_outer_m, sign * st.a_inner_m);
+        out.push([st.r_outer_m * c, st.r_outer_m * s, zo]);
+        out.push([st.r_outer_m * c, st.r_outer_m * s, zo + h]);
+        out.push([st.r_inner_m * c, st.r_inner_m * s, zi]);
+        out.push([st.r_inner_m * c, st.r_inner_m * s, zi + h]);
+    }
+    Ok(out)
+}
+
+/// Path of the drive cable of one ring ("O" or "I") through every bay diagonal,
+/// from the motor at frame 0 around the ring and back to frame 0, where its end is
+/// anchored. The outer diagonals run from the low post's bottom to the high post's
+/// top (even frames low); the inner ring is sheared the other way (odd frames low).
+pub fn stowing_cable_path(n: usize, ring: &str) -> Vec<String> {
+    let low_at_even = ring == "O";
+    (0..=n)
+        .map(|k| {
+            let low = (k % 2 == 0) == low_at_even;
+            format!("{ring}{}_{}", k % n, if low { "b" } else { "t" })
+        })
+        .collect()
+}
+
+/// The far end of radial frame k's diagonal from the outer post: the inner top on
+/// even frames (inner post high), the inner foot on odd frames.
+fn frame_diagonal_inner_end(n: usize, k: usize) -> String {
+    format!("I{}_{}", k % n, if k % 2 == 0 { "t" } else { "b" })
+}
+
+/// Horizontal distance of the farthest joint from the centroid of all joints.
+pub fn horizontal_extent_m(x: &[[f64; 3]]) -> f64 {
+    let m = x.len() as f64;
+    let (cx, cy) = (
+        x.iter().map(|p| p[0]).sum::<f64>() / m,
+        x.iter().map(|p| p[1]).sum::<f64>() / m,
+    );
+    x.iter()
+        .map(|p| ((p[0] - cx).powi(2) + (p[1] - cy).powi(2)).sqrt())
+        .fold(0.0, f64::max)
+}
+
+pub fn stowing_ring(p: &RingParams) -> Result<ModelDoc, String> {
+    let n = p.sides;
+    let phi0 = p.start_deg.to_radians();
+    let x0 = stowing_positions(p, phi0)?;
+    let xd = stowing_positions(p, 0.0)?;
+    let st = fold_state(p, phi0)?;
+    let post = match p.mount.as_str() {
+        "post" => true,
+        "hub" => false,
+        other => {
+            return Err(format!(
+                "--mount {other}: the stowing ring is held at `post` (post O0 clamped to a boom) or `hub` (at its centre)"
+            ))
+        }
+    };
+    // Held at post O0, the deployed ring is placed where that post starts; held at
+    // its hub, the ring keeps its axis.
+    let joints = ring_joints(p, &x0, &xd, post);
+    let (h, co, ci) = (p.height_m, p.outer_chord_m, p.inner_chord_m);
+    let w = ring_depth_m(p);
+    let el =
+        |kind: &str, name: String, joints: Vec<String>, params: Vec<(String, Param)>| ElementDoc {
+            kind: kind.into(),
+            name,
+            joints,
+            params,
+        };
+    let j = |ring: &str, k: usize, end: &str| format!("{ring}{}_{end}", k % n);
+    let fix = fix_joint;
+    let mut elements = Vec::new();
+    if post {
+        // Post O0 clamped to the boom's end fitting: its foot fixed, its top held
+        // above it, and the fitting's turn about the post held by keeping frame 0's
+        // inner foot in the plane y = 0.
+        elements.push(fix(j("O", 0, "b"), "xyz"));
+        elements.push(fix(j("O", 0, "t"), "xy"));
+        elements.push(fix(j("I", 0, "b"), "y"));
+    } else {
+        elements.extend(hub_mount(n));
+    }
+    let lock = |l: f64| vec![("lock_length_m".to_string(), Param::Num(l))];
+    for k in 0..n {
+        for ring in ["O", "I"] {
+            elements.push(el(
+                "bar",
+                format!("{ring}{k}_post"),
+                vec![j(ring, k, "b"), j(ring, k, "t")],
+                vec![],
+            ));
+        }
+        // Radial frame k: battens of fixed length w, hinged at both posts, planar.
+        for end in ["b", "t"] {
+            elements.push(el(
+                "bar",
+                format!("R{k}_{end}"),
+                vec![j("O", k, end), j("I", k, end)],
+                vec![],
+            ));
+        }
+        elements.push(el(
+            "coplanar",
+            format!("R{k}_plane"),
+            vec![
+                j("O", k, "b"),
+                j("O", k, "t"),
+                j("I", k, "t"),
+                j("I", k, "b"),
+            ],
+            vec![],
+        ));
+        // Its long diagonal, outer foot to the inner top where the inner post is high
+        // (even frames), inner foot to the outer top where it is low: length^2 =
+        // w^2 + h^2 + 2 w h sin(psi); it latches passively.
+        elements.push(el(
+            "sleeve",
+            format!("R{k}_diag"),
+            vec![
+                stowing_cable_path(n, "O")[k].clone(),
+                frame_diagonal_inner_end(n, k),
+            ],
+            lock((w * w + h * h).sqrt()),
+        ));
+        // Bottom chords on revolute hinges fixed in their post's fitting (the inner
+        // ones only with `inner_hinges`; otherwise ball joints).
+        let hinged: &[(&str, &str)] = if p.inner_hinges {
+            &[("O", "I"), ("I", "O")]
+        } else {
+            &[("O", "I")]
+        };
+        for (ring, across) in hinged {
+            for (side, other) in [("next", k + 1), ("prev", k + n - 1)] {
+                elements.push(el(
+                    "frame_hinge",
+                    format!("{ring}{k}_hinge_{side}"),
+                    vec![
+                        j(ring, k, "b"),
+                        j(ring, k, "t"),
+                        j(across, k, "b"),
+                        j(ring, other, "b"),
+                    ],
+                    vec![],
+                ));
+            }
+        }
+        for (ring, c) in [("O", co), ("I", ci)] {
+            elements.push(el(
+                "bar",
+                format!("{ring}_bay{k}_top"),
+                vec![j(ring, k, "t"), j(ring, k + 1, "t")],
+                vec![],
+            ));
+            elements.push(el(
+                "bar",
+                format!("{ring}_bay{k}_bottom"),
+                vec![j(ring, k, "b"), j(ring, k + 1, "b")],
+                vec![],
+            ));
+            elements.push(el(
+                "coplanar",
+                format!("{ring}_bay{k}_plane"),
+                vec![
+                    j(ring, k, "b"),
+                    j(ring, k, "t"),
+                    j(ring, k + 1, "t"),
+                    j(ring, k + 1, "b"),
+                ],
+                vec![],
+            ));
+            if ring == "O" {
+                // The long diagonal, low post's foot to high post's top: its length^2
+                // = c^2 + h^2 + 4 a_o h falls to sqrt(c^2 + h^2) as the bay opens.
+                let path = stowing_cable_path(n, ring);
+                elements.push(el(
+                    "sleeve",
+                    format!("{ring}_diag{k}"),
+                    vec![path[k].clone(), path[k + 1].clone()],
+                    lock((c * c + h * h).sqrt()),
+                ));
+            }
+        }
+    }
+    let cable = CableDoc {
+        name: "drive".into(),
+        path: stowing_cable_path(n, "O"),
+        tension_n: p.tension_n,
+        max_tension_n: p.max_tension_n,
+        friction_mu: p.friction_mu,
+        pulley_radius_m: 0.01,
+    };
+    let extent = horizontal_extent_m(&x0) / horizontal_extent_m(&xd);
+    let s = (PI / n as f64).sin();
+    let (ro_d, ri_d) = (co / (2.0 * s), ci / (2.0 * s));
+    Ok(ModelDoc {
+        name: "double_ring".into(),
+        description: format!(
+            "{n}-sided double-ring deployable truss: outer chord {co} m, inner chord {ci} m, height {h} m, depth {w:.4} m, \
+             stowed with the outer bays sheared {} deg (start extent {extent:.3} of the deployed)",
+            p.start_deg
+        ),
+        notes: vec![
+            format!("Outer ring circumradius {ro_d:.4} m (diameter {:.4} m, the paper's 5.0 m aperture), inner {ri_d:.4} m, from the chords.", 2.0 * ro_d),
+            CHORD_UNIT_NOTE.into(),
+            "Every quadrilateral is a parallelogram that shears to fold, as AstroMesh-type hoop trusses fold (bay longerons turn until they lie along the posts): outer bays (posts Ok, chords 0.8757 m), inner bays (chords 0.6167 m) and radial frames (outer post, inner post, radial battens of the ring depth).".into(),
+            "Outer bays shear in alternating directions around the ring (even frames sink, odd frames rise), inner bays the other way; each radial frame shears so that its inner post rises (even) or sinks (odd).".into(),
+            format!("Fold: with the paper's numbers the ring depth {w:.4} m is within 0.06 % of the mean chord {:.4} m, so every panel shears by nearly the same angle and the ring folds to a bundle of parallel posts on its axis. Start: outer bays sheared {} deg, frames {:.2} deg; the farthest joint is {:.3} of its deployed distance from the axis (r_o {:.4} m, r_i {:.4} m).", 0.5 * (co + ci), p.start_deg, st.psi_rad.to_degrees(), extent, st.r_outer_m, st.r_inner_m),
+            "Each outer bay has a diagonal sleeve from its low post's foot to its high post's top; it shortens as the bay opens and latches at sqrt(c^2 + h^2). Each radial frame has a diagonal sleeve (its long diagonal, latching at sqrt(w^2 + h^2)): with the outer bays flat the inner chords hold the frames square only to first order in their common shear, and the frame diagonals make the latched ring rigid. The inner bays carry none (with a latch of their own they flatten ahead of the outer bays).".into(),
+            if p.inner_hinges {
+                "Hinges (assumed; the paper's figures are missing): every bottom chord on a revolute hinge whose axis is fixed in its post's fitting (frame_hinge: the post and its radial frame's normal span the fitting, so the axis does not turn as the frame shears), battens hinged about their frame's normal. No gears; yet with hinges on both rings every radial frame must keep one depth, so all bays shear alike: `analyze` counts 1 mechanism before the latches and 0 after, and every sleeve latches at one instant.".into()
+            } else {
+                "Hinges (assumed; the paper's figures are missing): outer bottom chords on revolute hinges fixed in the outer post's fitting (frame_hinge), inner chord ends on ball joints, battens hinged about their frame's normal. No gears: `analyze` counts 16 mechanisms for 18 sides before the latches (n - 3 = 15 by hand, one more first-order one at the symmetric start) and 0 after. This variant does not deploy: the inner ring flattens ahead of the outer one and the ring locks up short.".into()
+            },
+            "Drive (the paper's active cable through the diagonal sleeves): one cable from a motor at post O0's foot through every outer bay diagonal around the ring and back to O0, where its end is anchored; a pulley at every post joint on the way (radius 0.01 m) with capstan friction mu, so the tension falls along the cable away from the motor. The radial frame diagonals latch passively.".into(),
+            if post {
+                "Mount `post` (default): post O0 clamped to the end fitting of a boom (foot fixed, top held above it, the fitting's turn held by frame 0's inner foot at y = 0), as hoop-truss reflectors hang off their boom at one post. `--mount hub` holds the ring's centre instead.".into()
+            } else {
+                "Mount `hub`: the centre of the outer feet fixed, O0_b held at y = 0 against spin and the mean heights of two blocks of frames level. The default `post` mount clamps post O0 to a boom instead.".into()
+            },
+            DAMPING_NOTE.into(),
+            "The synchronized ring (square frames, gears at every post, one mechanism, part-folded start) is `generate ring` (the default; `--sync` names its gears).".into(),
+            NUMBERING_NOTE.into(),
+        ],
+        dt_s: p.dt_s,
+        end_time_s: 600.0,
+        damping_n_s_per_m: p.damping_n_s_per_m,
+        joints,
+        elements,
+        cables: vec![cable],
+    })
+}
