@@ -11,6 +11,7 @@ use crate::solver::least_work::LeastWork;
 use crate::solver::linsolve::SolverKind;
 use crate::solver::linsolve::{ConstraintSolver, FactorReport, SolveMode, SolveReport};
 use crate::solver::model::Model;
+use crate::solver::state::State;
 use crate::solver::stats::SolverStats;
 use crate::solver::SolverError;
 
@@ -199,19 +200,25 @@ impl Core {
             self.q[3 * jb + k] = u[k];
         }
         self.c.fill(0.0);
-        let report = self.solver.accelerations(
-            &self.jac,
-            &model.inv_mass,
-            &self.q,
-            &self.c,
-            &mut self.a,
-            &mut self.lambda,
-        )?;
-        self.book_solve(report);
+        debug_assert!(self.implicit_h.is_none(), "between steps: plain masses");
+        self.solve_accelerations(model)?;
         Ok((0..3)
             .map(|k| u[k] * (self.a[3 * jb + k] - self.a[3 * ja + k]))
             .sum::<f64>()
             .max(0.0))
+    }
+
+    /// Commits the trial (x, v, a, multipliers, cable readings) to the state,
+    /// keeping the largest constraint violation seen.
+    pub fn commit_trial(&self, s: &mut State) {
+        s.x.copy_from_slice(&self.x);
+        s.v.copy_from_slice(&self.v);
+        s.a.copy_from_slice(&self.a);
+        s.lambda.clone_from(&self.lambda);
+        for (o, n) in s.cables.iter_mut().zip(&self.cables) {
+            o.clone_from(n);
+        }
+        s.max_violation_m = s.max_violation_m.max(self.violation_m);
     }
 
     pub fn save_trial(&self, to: &mut TrialCopy) {

@@ -308,14 +308,7 @@ impl Simulator {
             &s.x,
             &core.x,
         );
-        s.x.copy_from_slice(&core.x);
-        s.v.copy_from_slice(&core.v);
-        s.a.copy_from_slice(&core.a);
-        s.lambda.clone_from(&core.lambda);
-        for (o, n) in s.cables.iter_mut().zip(&core.cables) {
-            o.clone_from(n);
-        }
-        s.max_violation_m = s.max_violation_m.max(core.violation_m);
+        core.commit_trial(s);
         let ke_after = s.kinetic_energy_j(model);
         s.energy.lock_loss_j += ke_before - ke_after + moved_j;
         self.state.mechanisms = self.mechanisms_now();

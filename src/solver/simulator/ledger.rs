@@ -61,14 +61,7 @@ impl Simulator {
         }
         let t0 = s.t_s;
         s.t_s += h;
-        s.x.copy_from_slice(&c.x);
-        s.v.copy_from_slice(&c.v);
-        s.a.copy_from_slice(&c.a);
-        s.lambda.clone_from(&c.lambda);
-        for (o, n) in s.cables.iter_mut().zip(&c.cables) {
-            o.clone_from(n);
-        }
-        s.max_violation_m = s.max_violation_m.max(c.violation_m);
+        c.commit_trial(s);
         let settle_rel = self.settings.latch_settle_rel;
         for tr in &mut s.transients {
             let ev = &mut s.locks[tr.event];
