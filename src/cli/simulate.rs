@@ -57,7 +57,8 @@ pub struct SimulateArgs {
     #[cfg(feature = "ros")]
     #[arg(long, value_name = "FILE.mcap")]
     mcap: Option<PathBuf>,
-    /// --mcap: publications per simulated second (default: every step).
+    /// --mcap: publications per simulated second (default: every step; /truss/markers at
+    /// most 5 per simulated second, as the node publishes them).
     #[cfg(feature = "ros")]
     #[arg(
         long,

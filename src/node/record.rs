@@ -397,8 +397,10 @@ pub fn stamp_ns(t_s: f64) -> u64 {
 }
 
 /// `simulate --mcap`: the node's publications for an offline run. /joint_states,
-/// /truss/state, /truss/markers and /clock at the start, then every `period_s`
-/// of simulation time (every step when `None`) and at the last state;
+/// /truss/state and /clock at the start, then every `period_s` of simulation
+/// time (every step when `None`) and at the last state; /truss/markers as the
+/// node publishes them, every [`MARKER_PERIOD_S`] (of simulation time here),
+/// or at every publication when those are sparser, and at the last state;
 /// /truss/lock_status at the start and on every change.
 pub struct OfflineRecording {
     rec: Recorder,
@@ -407,7 +409,9 @@ pub struct OfflineRecording {
     frame: String,
     period_s: Option<f64>,
     next_s: f64,
+    next_marker_s: f64,
     last_t_s: f64,
+    last_marker_t_s: f64,
     /// What /truss/lock_status was last recorded for: (latch events, deployed,
     /// motor tensions). Offline, nothing else in it changes (no commands, no
     /// pause), so comparing these is comparing the message without building it.
@@ -416,6 +420,11 @@ pub struct OfflineRecording {
 
 /// The frame of headers and markers (the node's default `--frame-id`).
 pub const FRAME: &str = "truss";
+
+/// The node's /truss/markers period (5 Hz, `launch_notes.md`). A MarkerArray
+/// is 84 % of a ring recording's bytes at every step, and a 3D panel gains
+/// nothing from more than a viewer's frame rate of them.
+pub const MARKER_PERIOD_S: f64 = 0.2;
 
 impl OfflineRecording {
     /// Opens `path` and records the initial state. `rate_hz`: publications per
@@ -433,7 +442,9 @@ impl OfflineRecording {
             frame: FRAME.to_string(),
             period_s: rate_hz.map(|r| 1.0 / r),
             next_s: sim.state().t_s,
+            next_marker_s: sim.state().t_s,
             last_t_s: f64::NAN,
+            last_marker_t_s: f64::NAN,
             last_lock: None,
         };
         me.after_step(sim)?;
@@ -445,18 +456,17 @@ impl OfflineRecording {
         let t = sim.state().t_s;
         // a publication is due once t reaches next_s (to a nanosecond)
         if self.period_s.is_none() || t >= self.next_s - 1e-9 {
-            self.publish(sim)?;
+            self.publish(sim, false)?;
             if let Some(p) = self.period_s {
-                // next multiple of the period after t (steps need not divide it)
-                while self.next_s <= t + 1e-9 {
-                    self.next_s += p;
-                }
+                self.next_s = next_multiple(self.next_s, p, t);
             }
         }
         self.lock_status(sim)
     }
 
-    fn publish(&mut self, sim: &mut Simulator) -> Result<(), String> {
+    /// Records /clock, /joint_states, /truss/state and (when due, or `last`)
+    /// /truss/markers for the current state.
+    fn publish(&mut self, sim: &mut Simulator, last: bool) -> Result<(), String> {
         let t = sim.state().t_s;
         let stamp = sim_stamp(t);
         let ns = stamp_ns(t);
@@ -464,9 +474,19 @@ impl OfflineRecording {
         self.rec.write(Topic::Clock, &Clock { clock: stamp }, ns)?;
         self.rec.write(Topic::JointStates, &js, ns)?;
         self.rec.write(Topic::State, &st, ns)?;
-        let markers = self.view.markers(sim, stamp, &self.frame);
-        self.rec.write_markers(&markers, ns)?;
         self.last_t_s = t;
+        if last || t >= self.next_marker_s - 1e-9 {
+            self.markers(sim)?;
+        }
+        Ok(())
+    }
+
+    fn markers(&mut self, sim: &mut Simulator) -> Result<(), String> {
+        let t = sim.state().t_s;
+        let markers = self.view.markers(sim, sim_stamp(t), &self.frame);
+        self.rec.write_markers(&markers, stamp_ns(t))?;
+        self.next_marker_s = next_multiple(self.next_marker_s, MARKER_PERIOD_S, t);
+        self.last_marker_t_s = t;
         Ok(())
     }
 
@@ -489,10 +509,29 @@ impl OfflineRecording {
     /// Records the last state (if not yet) and finishes the file.
     pub fn finish(mut self, sim: &mut Simulator) -> Result<RecordStats, String> {
         if self.last_t_s != sim.state().t_s {
-            self.publish(sim)?;
+            self.publish(sim, true)?;
+        } else if self.last_marker_t_s != sim.state().t_s {
+            self.markers(sim)?;
         }
         self.lock_status(sim)?;
         self.rec.finish()
+    }
+}
+
+/// The first `next + k period` (k >= 0) after `t` (to a nanosecond): the next
+/// due time of a periodic publication (steps need not divide the period).
+fn next_multiple(next: f64, period: f64, t: f64) -> f64 {
+    if next > t + 1e-9 {
+        return next;
+    }
+    // (a closed form: a loop of `period` increments would spin for an
+    // --mcap-rate far above the step rate)
+    let k = ((t + 1e-9 - next) / period).floor() + 1.0;
+    let n = next + k * period;
+    if n > t + 1e-9 {
+        n
+    } else {
+        n + period
     }
 }
 

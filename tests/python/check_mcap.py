@@ -40,6 +40,8 @@ def check_topic(out, topic, log_time, publish_time, msg):
     if t["first_ns"] is None:
         t["first_ns"] = log_time
     t["last_ns"] = log_time
+    if topic in ("/joint_states", "/truss/markers"):
+        t.setdefault("stamps_ns", []).append(log_time)
 
 
 def lock_facts(m):
