@@ -83,6 +83,21 @@ fn count(v: &Value, reader: &str, topic: &str) -> u64 {
 /// topics with their types, the ros2 profile and encodings, the QoS of
 /// DESIGN.md, every message decoded by both with stamp = log time = publish
 /// time, the same counts as the summary's statistics, the same final messages.
+/// Every recorded MarkerArray decodes with the official definitions of the
+/// distributions in `ok` (rosbags' type stores, independent of the schema the
+/// file carries) and with none of those in `fail`.
+fn markers_decode_as(v: &Value, ok: &[&str], fail: &[&str]) {
+    let n = count(v, "rosbags", "/truss/markers");
+    assert!(n >= 1);
+    let o = &v["rosbags"]["official_markers"];
+    for d in ok {
+        assert_eq!(o[d]["ok"].as_u64(), Some(n), "{d}: {o}");
+    }
+    for d in fail {
+        assert_eq!(o[d]["fail"].as_u64(), Some(n), "{d}: {o}");
+    }
+}
+
 fn check_whole(v: &Value) {
     let (m, r) = (&v["mcap"], &v["rosbags"]);
     assert_eq!(m["profile"], "ros2");
@@ -146,6 +161,7 @@ fn simulate_mast_recording_decodes_whole_with_both_readers() {
     assert_eq!(s["deployed"], true);
     let v = check(&py, &file, false);
     check_whole(&v);
+    markers_decode_as(&v, &["humble", "jazzy"], &["galactic"]);
 
     let steps = s["steps"].as_u64().unwrap();
     let end_ns = (s["time_s"].as_f64().unwrap() * 1e9).round() as u64;
@@ -320,7 +336,18 @@ fn signal(p: &NodeProc, sig: &str) {
 fn node_recording_stopped_by_sigint_decodes_whole() {
     let Some(py) = python() else { return };
     let file = tmp("node_sigint.mcap");
-    let mut node = spawn_node(domain(0), &file, &["--rtf", "2", "--max-wall-s", "30"]);
+    let mut node = spawn_node(
+        domain(0),
+        &file,
+        &[
+            "--rtf",
+            "2",
+            "--max-wall-s",
+            "30",
+            "--markers-for",
+            "humble",
+        ],
+    );
     std::thread::sleep(Duration::from_secs(4));
     signal(&node, "-INT");
     let (code, stdout) = wait_exit(&mut node);
@@ -331,6 +358,7 @@ fn node_recording_stopped_by_sigint_decodes_whole() {
     assert!(stdout.contains("stopped (SIGINT)"), "{stdout}");
     let v = check(&py, &file, false);
     check_whole(&v);
+    markers_decode_as(&v, &["humble", "jazzy"], &["galactic"]);
     let said: u64 = stdout
         .lines()
         .find_map(|l| l.split("recorded ").nth(1))
@@ -346,8 +374,9 @@ fn node_recording_stopped_by_sigint_decodes_whole() {
     let _ = std::fs::remove_file(&file);
 }
 
-/// Stopped by --max-wall-s, with the Humble marker layout: finished, and both
-/// readers decode the markers with the Humble schema.
+/// Stopped by --max-wall-s, with Foxy's and Galactic's marker layout: finished,
+/// both readers decode the markers with the schema in the file, and the raw
+/// markers are Galactic's Marker, not Humble's.
 #[test]
 fn node_recording_ended_by_max_wall_decodes_whole() {
     let Some(py) = python() else { return };
@@ -355,12 +384,13 @@ fn node_recording_ended_by_max_wall_decodes_whole() {
     let mut node = spawn_node(
         domain(1),
         &file,
-        &["--max-wall-s", "2.5", "--markers-for", "humble"],
+        &["--max-wall-s", "2.5", "--markers-for", "galactic"],
     );
     let (code, stdout) = wait_exit(&mut node);
     assert_eq!(code, Some(0), "{stdout}");
     let v = check(&py, &file, false);
     check_whole(&v);
+    markers_decode_as(&v, &["galactic"], &["humble", "jazzy"]);
     let _ = std::fs::remove_file(&file);
 }
 

@@ -45,10 +45,15 @@ pub const BUILT_FOR: Distro = Distro::Jazzy;
 
 #[derive(Clone, Copy, Debug, ValueEnum, PartialEq, Eq)]
 pub enum Distro {
-    /// visualization_msgs/Marker with the texture/uv/mesh_file fields (Iron, Jazzy, later).
+    /// ROS 2 Jazzy (and Iron, later): Marker with the texture/uv/mesh_file fields.
     Jazzy,
-    /// visualization_msgs/Marker as in Humble.
+    /// ROS 2 Humble: the same Marker layout as Jazzy (the fields came in
+    /// common_interfaces 3.0.0, before Humble's release).
     Humble,
+    /// ROS 2 Foxy and Galactic (end of life): Marker without the texture, uv and
+    /// mesh_file fields.
+    #[value(alias = "foxy")]
+    Galactic,
 }
 
 #[derive(Clone, Copy, Debug, ValueEnum, PartialEq, Eq)]
@@ -803,8 +808,9 @@ mod tests {
 
     /// The distribution feature decides the Gid in ros_discovery_info (Humble
     /// 24 bytes, Iron and later 16: rmw_dds_common/msg/Gid.msg) and the
-    /// default Marker layout (Humble's has no texture, uv_coordinates or
-    /// mesh_file fields). CI runs this under both features.
+    /// default --markers-for (which, for Humble as for Jazzy, is the Marker
+    /// with texture, uv_coordinates and mesh_file). CI runs this under both
+    /// features.
     #[test]
     fn distribution_feature_selects_gid_and_marker_layout() {
         let a = Cli::parse_from(["x", "model.toml"]).node;

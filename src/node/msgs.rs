@@ -372,8 +372,9 @@ pub const SIM_IF_FIELDS: &[(&str, &str, &[(&str, &str)])] = &[
     ("StepSimulation.srv", "response", &[("result", "Result")]),
 ];
 
-/// visualization_msgs/msg/Marker as of ROS 2 Iron/Jazzy (with texture, uv and
-/// mesh_file fields). Humble's layout is [`MarkerHumble`].
+/// visualization_msgs/msg/Marker as of ROS 2 Humble, Iron and Jazzy (with the
+/// texture, uv and mesh_file fields added by common_interfaces 3.0.0, 2021).
+/// Foxy's and Galactic's layout is [`MarkerGalactic`].
 #[derive(Debug, Clone, Serialize, Deserialize)]
 pub struct MarkerJazzy {
     pub header: Header,
@@ -397,9 +398,10 @@ pub struct MarkerJazzy {
     pub mesh_use_embedded_materials: bool,
 }
 
-/// visualization_msgs/msg/Marker as of ROS 2 Humble.
+/// visualization_msgs/msg/Marker as of ROS 2 Foxy and Galactic (before the
+/// texture, uv and mesh_file fields).
 #[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct MarkerHumble {
+pub struct MarkerGalactic {
     pub header: Header,
     pub ns: String,
     pub id: i32,
@@ -443,10 +445,10 @@ pub struct MarkerArrayJazzy {
 impl Message for MarkerArrayJazzy {}
 
 #[derive(Debug, Clone, Serialize, Deserialize)]
-pub struct MarkerArrayHumble {
-    pub markers: Vec<MarkerHumble>,
+pub struct MarkerArrayGalactic {
+    pub markers: Vec<MarkerGalactic>,
 }
-impl Message for MarkerArrayHumble {}
+impl Message for MarkerArrayGalactic {}
 
 impl Default for Header {
     fn default() -> Self {
@@ -457,9 +459,9 @@ impl Default for Header {
     }
 }
 
-impl From<MarkerJazzy> for MarkerHumble {
+impl From<MarkerJazzy> for MarkerGalactic {
     fn from(m: MarkerJazzy) -> Self {
-        MarkerHumble {
+        MarkerGalactic {
             header: m.header,
             ns: m.ns,
             id: m.id,

@@ -324,7 +324,7 @@ pub fn lock_key(m: &LockStatus) -> Vec<u8> {
 
 pub enum MarkerPub {
     Jazzy(Publisher<MarkerArrayJazzy>),
-    Humble(Publisher<MarkerArrayHumble>),
+    Galactic(Publisher<MarkerArrayGalactic>),
 }
 
 impl MarkerPub {
@@ -337,11 +337,11 @@ impl MarkerPub {
             )
             .map_err(|e| format!("create markers: {e:?}"))?;
         Ok(match distro {
-            Distro::Jazzy => MarkerPub::Jazzy(
+            Distro::Jazzy | Distro::Humble => MarkerPub::Jazzy(
                 node.create_publisher(&t, None)
                     .map_err(|e| format!("create markers: {e:?}"))?,
             ),
-            Distro::Humble => MarkerPub::Humble(
+            Distro::Galactic => MarkerPub::Galactic(
                 node.create_publisher(&t, None)
                     .map_err(|e| format!("create markers: {e:?}"))?,
             ),
@@ -356,8 +356,8 @@ impl MarkerPub {
     pub fn publish_built(&self, m: Vec<MarkerJazzy>) {
         let _ = match self {
             MarkerPub::Jazzy(p) => p.publish(MarkerArrayJazzy { markers: m }).map_err(|_| ()),
-            MarkerPub::Humble(p) => p
-                .publish(MarkerArrayHumble {
+            MarkerPub::Galactic(p) => p
+                .publish(MarkerArrayGalactic {
                     markers: m.into_iter().map(Into::into).collect(),
                 })
                 .map_err(|_| ()),

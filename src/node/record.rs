@@ -102,15 +102,16 @@ const MARKER_HEAD: &str = concat!(
 );
 
 /// The rest of visualization_msgs/Marker in the layout in use: with the
-/// texture, uv and mesh_file fields ([`MarkerJazzy`]) or without ([`MarkerHumble`]).
+/// texture, uv and mesh_file fields ([`MarkerJazzy`], Humble and later) or without
+/// ([`MarkerGalactic`], Foxy and Galactic).
 fn marker_msg(markers: Distro) -> String {
     let tail = match markers {
-        Distro::Jazzy => concat!(
+        Distro::Jazzy | Distro::Humble => concat!(
             "string texture_resource\nsensor_msgs/CompressedImage texture\n",
             "UVCoordinate[] uv_coordinates\nstring text\nstring mesh_resource\n",
             "MeshFile mesh_file\nbool mesh_use_embedded_materials\n"
         ),
-        Distro::Humble => "string text\nstring mesh_resource\nbool mesh_use_embedded_materials\n",
+        Distro::Galactic => "string text\nstring mesh_resource\nbool mesh_use_embedded_materials\n",
     };
     format!("{MARKER_HEAD}{tail}")
 }
@@ -351,16 +352,16 @@ impl Recorder {
     /// was created with (the node's `--markers-for`).
     pub fn write_markers(&mut self, m: &[MarkerJazzy], stamp_ns: u64) -> Result<(), String> {
         match self.markers {
-            Distro::Jazzy => self.write(
+            Distro::Jazzy | Distro::Humble => self.write(
                 Topic::Markers,
                 &MarkerArrayJazzy {
                     markers: m.to_vec(),
                 },
                 stamp_ns,
             ),
-            Distro::Humble => self.write(
+            Distro::Galactic => self.write(
                 Topic::Markers,
-                &MarkerArrayHumble {
+                &MarkerArrayGalactic {
                     markers: m.iter().cloned().map(Into::into).collect(),
                 },
                 stamp_ns,
@@ -616,7 +617,7 @@ mod tests {
     /// without its text) in both marker layouts.
     #[test]
     fn every_schema_is_complete() {
-        for distro in [Distro::Jazzy, Distro::Humble] {
+        for distro in [Distro::Jazzy, Distro::Humble, Distro::Galactic] {
             for (ty, _, _) in topic_table("/") {
                 let short = ty.replacen("/msg/", "/", 1);
                 let text = schema_text(&short, distro).unwrap();

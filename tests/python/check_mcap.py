@@ -105,6 +105,17 @@ def read_mcap(path):
     return out
 
 
+def official_stores():
+    """rosbags' type stores of the distributions, from their released .msg files."""
+    from rosbags.typesys import Stores, get_typestore
+
+    return {
+        "galactic": get_typestore(Stores.ROS2_GALACTIC),
+        "humble": get_typestore(Stores.ROS2_HUMBLE),
+        "jazzy": get_typestore(Stores.ROS2_JAZZY),
+    }
+
+
 def read_rosbags(path):
     from rosbags.highlevel import AnyReader
 
@@ -126,8 +137,19 @@ def read_rosbags(path):
                 },
             }
         last_lock = last_state = None
+        official = official_stores()
+        out["official_markers"] = {name: {"ok": 0, "fail": 0} for name in official}
         for conn, ts, raw in reader.messages():
             msg = reader.deserialize(raw, conn.msgtype)
+            if conn.topic == "/truss/markers":
+                # the raw CDR against each distribution's own Marker definition
+                # (rosbags' bundled type stores, not the schema in the file)
+                for name, store in official.items():
+                    try:
+                        store.deserialize_cdr(raw, conn.msgtype)
+                        out["official_markers"][name]["ok"] += 1
+                    except Exception:
+                        out["official_markers"][name]["fail"] += 1
             # rosbags gives only the log time: publish time is checked by the other reader
             check_topic(out["topics"], conn.topic, ts, ts, msg)
             if conn.topic == "/truss/lock_status":
