@@ -23,6 +23,9 @@ pub struct LockEvent {
     /// is an impulse) or while the peak is still to come.
     pub peak_force_n: Option<f64>,
     pub time_of_peak_s: Option<f64>,
+    /// Compliant latches: when the transient settled and the latch turned
+    /// rigid (s); None for a rigid latch or while the transient lasts.
+    pub rigid_at_s: Option<f64>,
 }
 
 /// A compliant latch while its engagement transient lasts: a spring-damper

@@ -75,6 +75,10 @@ pub struct Fallbacks {
     /// A compliant latch turned rigid at `latch_max_periods` without having
     /// settled (the rigid latch took the oscillation left).
     pub latch_unsettled: u64,
+    /// A compliant latch latched rigid at once: nothing of the structure
+    /// could move along it (inverse effective mass 0, e.g. a sleeve redundant
+    /// with members already latched), so its spring could never deflect.
+    pub latch_without_compliance: u64,
 }
 
 impl SolverStats {
@@ -88,7 +92,8 @@ impl SolverStats {
              {} Newmark min-norm, {} lagged friction, {} projection min-norm, {} velocity min-norm, \
              {} refactored, {} re-probed, {} least-squares, {} unconverged solves, \
              {} dips rejected ({} checks failed), {} root searches at their limit, \
-             {} inertia fixed points unconverged",
+             {} inertia fixed points unconverged, {} latches unsettled at their limit, \
+             {} compliant latches with no compliance",
             self.steps,
             self.substeps,
             self.newmark_steps,
@@ -114,6 +119,8 @@ impl SolverStats {
             f.dip_checks_failed,
             f.root_search_limit,
             f.consistent_unconverged,
+            f.latch_unsettled,
+            f.latch_without_compliance,
         )
     }
 }

@@ -69,11 +69,13 @@ impl Simulator {
             return Ok(0);
         }
         let t = self.state.t_s;
-        let (springy, rigid): (Vec<usize>, Vec<usize>) = newly
+        let (springy, mut rigid): (Vec<usize>, Vec<usize>) = newly
             .iter()
             .partition(|&&e| model.elements[e].latch_spring().is_some());
         for &e in &springy {
-            self.engage(e)?;
+            if !self.engage(e)? {
+                rigid.push(e);
+            }
         }
         if rigid.is_empty() {
             // the dampers' force jumps in: accelerations from there
@@ -86,11 +88,12 @@ impl Simulator {
                     element: e,
                     name: self.model.elements[e].name().to_string(),
                     time_s: t,
-                    impulse_ns,
+                    impulse_ns: impulse_ns.abs(),
                     energy_lost_j,
                     closing_speed_m_s: rate,
                     peak_force_n: None,
                     time_of_peak_s: None,
+                    rigid_at_s: None,
                 });
             }
         }
@@ -105,17 +108,24 @@ impl Simulator {
     /// A compliant latch engages at the state: its event (peak to come) and
     /// transient, with the structure's effective mass along the sleeve (at
     /// the factorization the accepted step left, every rigid constraint
-    /// holding) for its period 2 pi / sqrt(k w).
-    fn engage(&mut self, e: usize) -> Result<(), SolverError> {
+    /// holding) for its period 2 pi / sqrt(k w). Returns false, engaging
+    /// nothing, where the period is not finite (w = 0: the structure cannot
+    /// move along the sleeve, its spring would never deflect nor settle); the
+    /// caller latches it rigid (a counted fallback).
+    fn engage(&mut self, e: usize) -> Result<bool, SolverError> {
         let model = &self.model;
         let el = &model.elements[e];
         let (k, c) = el.latch_spring().unwrap_or_default();
-        let (_, rate) = el
-            .extension(&self.state.x, &self.state.v)
-            .unwrap_or_default();
+        let Some((_, rate, accel)) = sleeve_motion(model, e, &self.state) else {
+            return Ok(false);
+        };
         self.core.x.copy_from_slice(&self.state.x);
         let w = self.core.inverse_effective_mass(model, e)?;
         let period_s = 2.0 * std::f64::consts::PI / (k * w).sqrt();
+        if !(period_s.is_finite() && period_s > 0.0) {
+            self.core.stats.fallbacks.latch_without_compliance += 1;
+            return Ok(false);
+        }
         let t = self.state.t_s;
         self.state.locks.push(LockEvent {
             element: e,
@@ -126,8 +136,15 @@ impl Simulator {
             closing_speed_m_s: rate,
             peak_force_n: None,
             time_of_peak_s: None,
+            rigid_at_s: None,
         });
         let force_n = c * rate;
+        // T' = k ldot + c l'' just after contact: the damper's force c ldot
+        // jumps in and decelerates the sleeve by w c ldot on top of the
+        // motion before (l''-), so T'(0+) = k ldot + c (l''- - w c ldot)
+        // = ldot (k - c^2 w) + c l''-: negative, the peak at contact (c ldot),
+        // for damping ratios above 1/2 (c^2 > k m).
+        let force_rate_n_s = k * rate + c * (accel - w * c * rate);
         let sign = if rate >= 0.0 { 1.0 } else { -1.0 };
         self.state.transients.push(LatchTransient {
             element: e,
@@ -139,7 +156,7 @@ impl Simulator {
             period_s,
             engaged_at_s: t,
             force_n,
-            force_rate_n_s: f64::INFINITY, // rising: the peak is to come
+            force_rate_n_s,
             window_max_n: sign * force_n,
             window_min_n: sign * force_n,
             window_end_s: t + period_s,
@@ -149,7 +166,7 @@ impl Simulator {
         self.core.springs.push((e, k, c));
         self.core.stats.latches += 1;
         self.core.stats.compliant_latches += 1;
-        Ok(())
+        Ok(true)
     }
 
     /// Longest step that resolves the engaged compliant latches: a fraction
@@ -214,7 +231,7 @@ impl Simulator {
         }
         // per latch: the force impulse and dissipation of its transient, and
         // the elastic energy 1/2 k g^2 it releases turning rigid
-        let mut settled: Vec<(usize, f64, f64)> = Vec::with_capacity(due.len());
+        let mut settled: Vec<(usize, f64, f64, f64)> = Vec::with_capacity(due.len());
         for tr in self
             .state
             .transients
@@ -225,17 +242,22 @@ impl Simulator {
             let spring_j = 0.5 * tr.stiffness_n_per_m * g * g;
             self.state.energy.latch_spring_energy_j -= spring_j;
             self.state.energy.lock_loss_j += spring_j;
-            settled.push((tr.event, tr.impulse_ns, tr.dissipated_j + spring_j));
+            settled.push((tr.event, tr.sign, tr.impulse_ns, tr.dissipated_j + spring_j));
         }
         self.state
             .transients
             .retain(|tr| !due.contains(&tr.element));
         self.core.springs.retain(|s| !due.contains(&s.0));
         let jumps = self.lock_rigidly(&due)?;
-        for ((event, impulse_ns, lost_j), (impulse, lost, _)) in settled.into_iter().zip(jumps) {
+        for ((event, sign, impulse_ns, lost_j), (impulse, lost, _)) in
+            settled.into_iter().zip(jumps)
+        {
             let ev = &mut self.state.locks[event];
-            ev.impulse_ns = impulse_ns + impulse;
+            // the force integral and the jump's impulse are both signed
+            // tension positive; reported as a magnitude (the engaging sign)
+            ev.impulse_ns = sign * (impulse_ns + impulse);
             ev.energy_lost_j = lost_j + lost;
+            ev.rigid_at_s = Some(t);
         }
         Ok(due.len())
     }
@@ -244,8 +266,9 @@ impl Simulator {
     /// velocity jump onto the new constraint set, the impulses split by least
     /// work, the kinetic energy taken and the drive's work over the
     /// projection's move booked as latch loss, and the deployed state
-    /// decided. Returns per element its impulse (N s), the energy it took
-    /// (J) and its closing rate before (m/s).
+    /// decided. Returns per element its impulse (N s, signed: positive where
+    /// the element pulls its joints together, the multiplier's sign), the
+    /// energy it took (J) and its closing rate before (m/s).
     fn lock_rigidly(&mut self, elements: &[usize]) -> Result<Vec<(f64, f64, f64)>, SolverError> {
         let (model, st) = (&self.model, &self.settings);
         for &e in elements {
@@ -291,7 +314,7 @@ impl Simulator {
                     .find(|b| b.element == e)
                     .expect("latched element has a row");
                 let (mu, rate) = (core.mu[b.row0], core.r[b.row0]);
-                (mu.abs(), 0.5 * mu * rate, rate)
+                (mu, 0.5 * mu * rate, rate)
             })
             .collect();
         let s = &mut self.state;
@@ -345,6 +368,36 @@ impl Simulator {
     }
 }
 
+/// A sleeve's lock gap g = l - L_lock (m), extension rate ldot (m/s) and
+/// acceleration l'' (m/s^2) at (x, v, a):
+///   l'' = e . (a_b - a_a) + (|v_b - v_a|^2 - (e . (v_b - v_a))^2) / l.
+fn sleeve_motion_at(
+    model: &Model,
+    e: usize,
+    x: &[f64],
+    v: &[f64],
+    a: &[f64],
+) -> Option<(f64, f64, f64)> {
+    let el = &model.elements[e];
+    let (g, (l, rate)) = (el.lock_gap(x)?, el.extension(x, v)?);
+    let (ja, jb) = (el.joints()[0], el.joints()[1]);
+    let (mut e_dot_a, mut w2) = (0.0, 0.0);
+    for k in 0..3 {
+        let u = (x[3 * jb + k] - x[3 * ja + k]) / l;
+        e_dot_a += u * (a[3 * jb + k] - a[3 * ja + k]);
+        w2 += (v[3 * jb + k] - v[3 * ja + k]).powi(2);
+    }
+    Some((g, rate, e_dot_a + (w2 - rate * rate) / l))
+}
+
+fn sleeve_motion(
+    model: &Model,
+    e: usize,
+    s: &crate::solver::state::State,
+) -> Option<(f64, f64, f64)> {
+    sleeve_motion_at(model, e, &s.x, &s.v, &s.a)
+}
+
 /// After an accepted step from t0 of length h: a compliant latch's tension
 /// and its rate at the new state, the peak of sign * T (the largest force
 /// through the latch) located inside the step on the cubic Hermite
@@ -362,19 +415,9 @@ pub(super) fn track_transient(
     (x, v, a): (&[f64], &[f64], &[f64]),
     settle_rel: f64,
 ) {
-    let el = &model.elements[tr.element];
-    let (Some(g), Some((l, rate))) = (el.lock_gap(x), el.extension(x, v)) else {
+    let Some((g, rate, accel)) = sleeve_motion_at(model, tr.element, x, v, a) else {
         return;
     };
-    // l'' = e . (a_b - a_a) + (|v_b - v_a|^2 - (e . (v_b - v_a))^2) / l
-    let (ja, jb) = (el.joints()[0], el.joints()[1]);
-    let (mut e_dot_a, mut w2) = (0.0, 0.0);
-    for k in 0..3 {
-        let e = (x[3 * jb + k] - x[3 * ja + k]) / l;
-        e_dot_a += e * (a[3 * jb + k] - a[3 * ja + k]);
-        w2 += (v[3 * jb + k] - v[3 * ja + k]).powi(2);
-    }
-    let accel = e_dot_a + (w2 - rate * rate) / l;
     let (k, c) = (tr.stiffness_n_per_m, tr.damping_n_s_per_m);
     let (f0, fd0) = (tr.sign * tr.force_n, tr.sign * tr.force_rate_n_s);
     tr.force_n = k * g + c * rate;
@@ -386,8 +429,13 @@ pub(super) fn track_transient(
     //   p(s) = h00 f0 + h10 h fd0 + h01 f1 + h11 h fd1,
     //   p'(s) = 6 (s^2 - s)(f0 - f1) + h fd0 (3s^2 - 4s + 1) + h fd1 (3s^2 - 2s),
     // a quadratic in s, where the rate turns from + to -
-    let mut best = (f1, t0 + h);
-    if fd0 > 0.0 && fd0.is_finite() && fd1 <= 0.0 {
+    // (the force at contact, c ldot, is the peak where it only falls after)
+    let mut best = if ev.peak_force_n.is_none() && f0 > f1 {
+        (f0, t0)
+    } else {
+        (f1, t0 + h)
+    };
+    if fd0 > 0.0 && fd1 <= 0.0 {
         let (qa, qb, qc) = (
             6.0 * (f0 - f1) + 3.0 * h * (fd0 + fd1),
             -6.0 * (f0 - f1) - 4.0 * h * fd0 - 2.0 * h * fd1,
