@@ -73,7 +73,7 @@ pub fn check_outputs(inputs: &[&Path], outputs: &[(&str, &Path)]) -> Result<(), 
 
 /// A temporary sibling of `target`: `.NAME.PID.TAG`, hidden, same directory (so
 /// the rename is atomic).
-fn temp_path(target: &Path, tag: &str) -> PathBuf {
+pub fn temp_path(target: &Path, tag: &str) -> PathBuf {
     let name = target
         .file_name()
         .map(|n| n.to_string_lossy().into_owned())

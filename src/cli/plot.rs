@@ -731,7 +731,7 @@ pub fn latch_plot(
             .y_desc("latch time (s)")
             .label_style((FONT, 15))
             .axis_desc_style((FONT, 17))
-            .x_labels((k_max as usize + 2).min(40))
+            .x_labels((k_max.min(38.0) as usize) + 2)
             .x_label_formatter(&|v: &f64| format!("{}", v.round() as i64))
             .y_label_formatter(&move |v: &f64| tick_label(*v, span))
             .draw()

@@ -195,12 +195,17 @@ pub fn run(a: SimulateArgs) -> Result<(), Failure> {
     check_positive("--until", a.until)?;
     check_positive("--max-wall-s", a.max_wall_s)?;
     let (mut sim, checks) = make_simulator_from(&a.model, a.solver.into())?;
+    #[cfg(feature = "ros")]
+    let mcap_path = &a.mcap;
+    #[cfg(not(feature = "ros"))]
+    let mcap_path: &Option<std::path::PathBuf> = &None;
     let outputs: Vec<(&str, &std::path::Path)> = [
         ("--csv", &a.csv),
         ("--json", &a.json),
         ("--plot", &a.plot),
         ("--snapshots", &a.snapshots),
         ("--latch-plot", &a.latch_plot),
+        ("--mcap", mcap_path),
     ]
     .into_iter()
     .filter_map(|(o, p)| p.as_deref().map(|p| (o, p)))
@@ -247,11 +252,20 @@ pub fn run(a: SimulateArgs) -> Result<(), Failure> {
     let dof_initial = sim.state().mechanisms;
     // --mcap (issue 15): the node's topics recorded offline, one code path with the node.
     #[cfg(feature = "ros")]
+    // (written to a temporary sibling, renamed onto the target once finished)
     let mut mcap = match &a.mcap {
-        Some(p) => Some(
-            crate::node::record::OfflineRecording::start(p, &mut sim, a.mcap_rate)
-                .map_err(Failure::input)?,
-        ),
+        Some(p) => {
+            let temp = super::output::temp_path(p, "part");
+            match crate::node::record::OfflineRecording::start(&temp, &mut sim, a.mcap_rate) {
+                Ok(r) => Some((r, temp, p.clone())),
+                Err(e) => {
+                    let _ = std::fs::remove_file(&temp);
+                    return Err(Failure::input(
+                        e.replace(&temp.display().to_string(), &p.display().to_string()),
+                    ));
+                }
+            }
+        }
         None => None,
     };
     let bar = ProgressBar::new((until / dt).ceil() as u64);
@@ -274,7 +288,17 @@ pub fn run(a: SimulateArgs) -> Result<(), Failure> {
                 if s.locks.is_empty() {
                     "deployed: every sleeve was latched at the start".into()
                 } else {
-                    format!("deployed at t = {t:.6} s: every sleeve latched")
+                    {
+                        let open = m.locks.iter().filter(|&&e| !s.locked[e]).count();
+                        if open == 0 {
+                            format!("deployed at t = {t:.6} s: every sleeve latched")
+                        } else {
+                            format!(
+                            "deployed at t = {t:.6} s: rigid (no mechanism left) with {open} of {} sleeves not latched",
+                            m.locks.len()
+                        )
+                        }
+                    }
                 },
             );
         }
@@ -350,8 +374,9 @@ pub fn run(a: SimulateArgs) -> Result<(), Failure> {
         }
         // (recording after the checks: the mutable borrow ends the state's)
         #[cfg(feature = "ros")]
-        if let Some(mc) = mcap.as_mut() {
+        if let Some((mc, temp, target)) = mcap.as_mut() {
             if let Err(e) = mc.after_step(&mut sim) {
+                let e = e.replace(&temp.display().to_string(), &target.display().to_string());
                 break (StopReason::Error, format!("cannot record --mcap: {e}"));
             }
         }
@@ -378,14 +403,25 @@ pub fn run(a: SimulateArgs) -> Result<(), Failure> {
         }
     }
     #[cfg(feature = "ros")]
-    if let Some(m) = mcap {
-        let st = m.finish(&mut sim).map_err(Failure::run)?;
-        say!(
-            "mcap             {} messages, {} bytes: {}",
-            st.messages,
-            st.bytes,
-            st.path.display()
-        );
+    if let Some((m, temp, target)) = mcap {
+        let shown =
+            |e: String| e.replace(&temp.display().to_string(), &target.display().to_string());
+        match m.finish(&mut sim).map_err(shown).and_then(|st| {
+            std::fs::rename(&temp, &target)
+                .map(|_| st)
+                .map_err(|e| format!("cannot write {}: {e}", target.display()))
+        }) {
+            Ok(st) => say!(
+                "mcap             {} messages, {} bytes: {}",
+                st.messages,
+                st.bytes,
+                target.display()
+            ),
+            Err(e) => {
+                let _ = std::fs::remove_file(&temp);
+                write_errors.push(e);
+            }
+        }
     }
     let (m, s) = (sim.model(), sim.state());
     let locks: Vec<(String, f64)> = s.locks.iter().map(|l| (l.name.clone(), l.time_s)).collect();

@@ -346,6 +346,10 @@ struct Timing {
 }
 
 const MAX_TIMING_RECORDS: usize = 2_000_000;
+/// Longest `--max-wall-s`: a year.
+const MAX_WALL_S: f64 = 3.2e7;
+/// Longest `--lock-period-s`: an hour.
+const MAX_LOCK_PERIOD_S: f64 = 3600.0;
 const MAX_CMDS_PER_WAKE: usize = 100_000;
 const MAX_CATCHUP_STEPS: usize = 50;
 
@@ -367,14 +371,20 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
             return Err(input(format!("--rate {r} must be in (0, 1000] Hz")));
         }
     }
+    // (bounded so that Duration and Instant arithmetic cannot overflow)
     if let Some(m) = a.max_wall_s {
-        if !(m.is_finite() && m > 0.0) {
-            return Err(input(format!("--max-wall-s {m} must be positive")));
+        if !(m.is_finite() && m > 0.0 && m <= MAX_WALL_S) {
+            return Err(input(format!(
+                "--max-wall-s {m} must be in (0, {MAX_WALL_S:e}] s"
+            )));
         }
     }
-    if !(a.lock_period_s.is_finite() && a.lock_period_s > 0.0) {
+    if !(a.lock_period_s.is_finite()
+        && a.lock_period_s > 0.0
+        && a.lock_period_s <= MAX_LOCK_PERIOD_S)
+    {
         return Err(input(format!(
-            "--lock-period-s {} must be positive",
+            "--lock-period-s {} must be in (0, {MAX_LOCK_PERIOD_S}] s",
             a.lock_period_s
         )));
     }

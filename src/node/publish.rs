@@ -26,6 +26,9 @@ pub struct View {
     members: Vec<(usize, usize, Option<usize>)>,
     lock_names: Vec<String>,
     cable_names: Vec<String>,
+    /// Publications whose least-work split failed (the solver's own split
+    /// was published instead); the first is reported on stderr.
+    pub least_work_failures: std::cell::Cell<u64>,
 }
 
 fn angle(x: &[f64], r: &[usize; 4]) -> f64 {
@@ -75,6 +78,7 @@ impl View {
                 .map(|&e| m.elements[e].name().to_string())
                 .collect(),
             cable_names: m.cables.iter().map(|c| c.name.clone()).collect(),
+            least_work_failures: std::cell::Cell::new(0),
         }
     }
 
@@ -160,7 +164,21 @@ impl View {
     ) -> (JointState, TrussState) {
         let shared = (sim.state().locked.iter().any(|&l| l))
             .then(|| sim.least_work_multipliers())
-            .and_then(Result::ok);
+            .and_then(|r| match r {
+                Ok(l) => Some(l),
+                Err(e) => {
+                    let n = self.least_work_failures.get() + 1;
+                    self.least_work_failures.set(n);
+                    if n == 1 {
+                        eprintln!(
+                            "warning: t = {} s: the least-work split of the member forces failed ({e}); \
+                             /joint_states efforts are the solver's own split until it succeeds",
+                            sim.state().t_s
+                        );
+                    }
+                    None
+                }
+            });
         let lambda = shared.as_deref().unwrap_or(&sim.state().lambda);
         (
             self.joint_state(sim, lambda, stamp, frame),

@@ -3,8 +3,9 @@
 //! the state (no I/O): the CLI calls them before the run (degenerate models)
 //! and after every step (energy balance, stall).
 //!
-//! Tolerances live in [`RunChecks`] (a model file sets them in its `[checks]`
-//! table); every field has a default and a doc line.
+//! Tolerances live in [`RunChecks`]; every field has a default and a doc
+//! line. A model file's `[checks]` table sets `energy_balance_rel_tol`,
+//! `stall_rel_motion`, `stall_time_s` and `max_steps`; the others are fixed.
 
 use super::cable;
 use super::model::Model;

@@ -68,7 +68,7 @@ pub struct SolverSettings {
     /// The latch time is refined until |gap| is at most this (m).
     pub root_tol_m: f64,
     /// Illinois iterations of the latch root search; a search that ends
-    /// without |gap| <= `lock_tol_m` is an error.
+    /// without |gap| <= the latch tolerance (`latch_tol_m()`) is an error.
     pub root_max_iterations: usize,
     /// The root search also stops when its bracket is this short, relative
     /// to the step.

@@ -312,6 +312,22 @@ impl Simulator {
         Ok(events)
     }
 
+    /// No sleeve crossed its lock without latching (or engaging) between the
+    /// positions `x_start` and the state's: else a `MissedLatch` error.
+    fn check_nothing_missed(&self) -> Result<(), SolverError> {
+        let (model, s) = (&self.model, &self.state);
+        let held = |e: usize| s.locked[e] || self.engaged(e);
+        let tol = self.settings.lock_tol_m;
+        match events::crossed_unlatched(model, &held, &self.x_start, &s.x, tol, None) {
+            Some(e) => Err(SolverError::MissedLatch {
+                element: model.elements[e].name().to_string(),
+                t_s: s.t_s,
+                gap_m: gap(model, e, &s.x),
+            }),
+            None => Ok(()),
+        }
+    }
+
     /// The trial sub-step of length h is computed: accept it, or the part of
     /// it up to the first latch (then latch). Elements whose interpolated dip
     /// to their lock the step map did not confirm (e.g. the ring's radial
@@ -323,7 +339,16 @@ impl Simulator {
         loop {
             let Some((target, s_hi)) = self.first_crossing(h, &not_real) else {
                 self.accept(h);
-                return self.settle_transients();
+                // a compliant latch turning rigid moves the joints back by its
+                // deflection T/k: nothing may pass its lock on that move
+                if !self.state.transients.is_empty() {
+                    self.x_start.copy_from_slice(&self.state.x);
+                }
+                let settled = self.settle_transients()?;
+                if settled > 0 {
+                    self.check_nothing_missed()?;
+                }
+                return Ok(settled);
             };
             if s_hi < 1.0 {
                 self.core.save_trial(&mut self.trial_copy);
@@ -336,19 +361,7 @@ impl Simulator {
                     let latched = settled + self.latch()?;
                     // Nothing may have passed its lock without latching
                     // (a target short of its lock goes on in the next sub-step).
-                    let (model, s) = (&self.model, &self.state);
-                    let tol = self.settings.lock_tol_m;
-                    let held =
-                        |e: usize| s.locked[e] || s.transients.iter().any(|t| t.element == e);
-                    let missed =
-                        events::crossed_unlatched(model, &held, &self.x_start, &s.x, tol, None);
-                    if let Some(e) = missed {
-                        return Err(SolverError::MissedLatch {
-                            element: model.elements[e].name().to_string(),
-                            t_s: s.t_s,
-                            gap_m: gap(model, e, &s.x),
-                        });
-                    }
+                    self.check_nothing_missed()?;
                     return Ok(latched);
                 }
                 None => {
