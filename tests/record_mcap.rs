@@ -280,6 +280,64 @@ fn simulate_mcap_bad_input_exits_2() {
     }
 }
 
+/// Recording outputs are checked like the other outputs: never the model
+/// (left byte for byte), never another output's path; the node's too, and its
+/// time arguments are bounded (exit 2, no panic). A finished recording leaves
+/// no temporary file beside it.
+#[test]
+fn recordings_never_overwrite_the_model_or_another_output() {
+    let dir = tmp("outputs_dir");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let model = dir.join("mast.toml");
+    std::fs::copy(MAST, &model).unwrap();
+    let before = std::fs::read(&model).unwrap();
+    let m = model.to_str().unwrap();
+    let out = dir.join("run.mcap");
+    let o = out.to_str().unwrap();
+    for (args, needle) in [
+        (vec!["simulate", m, "--mcap", m], "is the model file"),
+        (
+            vec!["simulate", m, "--mcap", o, "--json", o],
+            "each output needs its own file",
+        ),
+        (vec!["node", m, "--record", m], "is the model file"),
+        (vec!["node", m, "--timing", m], "is the model file"),
+        (vec!["node", m, "--max-wall-s", "1e20"], "--max-wall-s"),
+        (
+            vec!["node", m, "--lock-period-s", "1e20"],
+            "--lock-period-s",
+        ),
+    ] {
+        let r = Command::new(BIN).args(&args).output().unwrap();
+        let err = String::from_utf8_lossy(&r.stderr);
+        assert_eq!(r.status.code(), Some(2), "{args:?}: {err}");
+        assert!(err.contains(needle), "{args:?}: {err}");
+        assert_eq!(
+            std::fs::read(&model).unwrap(),
+            before,
+            "{args:?} touched the model"
+        );
+    }
+    let r = Command::new(BIN)
+        .args(["simulate", m, "--mcap", o])
+        .output()
+        .unwrap();
+    assert_eq!(
+        r.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&r.stderr)
+    );
+    let mut names: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    names.sort();
+    assert_eq!(names, ["mast.toml", "run.mcap"]);
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 struct NodeProc(Child);
 impl Drop for NodeProc {
     fn drop(&mut self) {
