@@ -4,6 +4,24 @@
 //! exact latch events and drift-free projection); [`model`] reads, validates and
 //! generates model files.
 
+/// println! that ignores a failed write (a closed pipe, a full disk) instead
+/// of panicking: the exit status and the files written still tell.
+macro_rules! say {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout(), $($t)*);
+    }};
+}
+
+/// eprintln! that ignores a failed write, as [`say!`].
+#[allow(unused_macros)]
+macro_rules! tell {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stderr(), $($t)*);
+    }};
+}
+
 pub mod cli;
 pub mod model;
 #[cfg(feature = "ros")]

@@ -338,6 +338,35 @@ fn recordings_never_overwrite_the_model_or_another_output() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// A node whose stdout and stderr are full (Linux /dev/full) runs to its
+/// --max-wall-s and exits 0: a failed log line is not a panic (was exit 101).
+#[test]
+fn node_with_full_stdout_and_stderr_does_not_panic() {
+    let Ok(full) = std::fs::OpenOptions::new().write(true).open("/dev/full") else {
+        eprintln!("skipped: no /dev/full");
+        return;
+    };
+    let mut child = Command::new(BIN)
+        .args(["node", MAST, "--loopback", "--max-wall-s", "1.5"])
+        .env("ROS_DOMAIN_ID", domain(2).to_string())
+        .stdout(full.try_clone().unwrap())
+        .stderr(full)
+        .spawn()
+        .expect("spawn node");
+    let t0 = Instant::now();
+    let status = loop {
+        if let Some(s) = child.try_wait().unwrap() {
+            break s;
+        }
+        if t0.elapsed() > Duration::from_secs(30) {
+            let _ = child.kill();
+            panic!("the node did not stop by --max-wall-s");
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    assert_eq!(status.code(), Some(0), "{status:?}");
+}
+
 struct NodeProc(Child);
 impl Drop for NodeProc {
     fn drop(&mut self) {

@@ -198,14 +198,14 @@ pub async fn run(a: ControllerArgs) -> Result<ControllerRun, String> {
                 if cables.is_none() {
                     let base = a.tension_n.map(|t| vec![t; m.cable_names.len()])
                         .unwrap_or_else(|| m.cable_tensions_n.clone());
-                    println!("controller: cables {:?}, base tensions {:?} N", m.cable_names, base);
+                    say!("controller: cables {:?}, base tensions {:?} N", m.cable_names, base);
                     cables = Some((m.cable_names.clone(), base));
                 }
                 run.impulses_ns = m.impulse_ns.clone();
                 run.max_impulse_ns = m.impulse_ns.iter().map(|x| x.abs()).fold(0.0, f64::max);
                 if m.deployed && !run.deployed {
                     run.deployed = true;
-                    println!("controller: deployed; latch impulses {:?} N s (max {:.6})", m.impulse_ns, run.max_impulse_ns);
+                    say!("controller: deployed; latch impulses {:?} N s (max {:.6})", m.impulse_ns, run.max_impulse_ns);
                     if a.max_wall_s.is_none() { break; }
                 }
             },

@@ -416,7 +416,7 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
         .spinner()
         .map_err(|e| NodeError::Run(format!("spinner: {e:?}")))?;
     let spin = tokio::spawn(spinner.spin());
-    println!(
+    say!(
         "truss_deploy: node {} on ROS domain {}{}; model {} ({} joints, {} cables), dt {} s, rtf {}, publishing at {:.3} Hz",
         node.fully_qualified_name(),
         node.domain_id(),
@@ -541,7 +541,7 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
                     }
                 }
                 Err(e) => {
-                    eprintln!(
+                    tell!(
                         "truss_deploy: step failed at t = {:.4} s: {e}; holding the last state (reset to continue)",
                         sim.state().t_s
                     );
@@ -552,7 +552,7 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
             n += 1;
             summary.steps += 1;
             if sim.state().deployed {
-                println!(
+                say!(
                     "truss_deploy: fully deployed at t = {:.3} s; holding the final state",
                     sim.state().t_s
                 );
@@ -582,7 +582,7 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
                     record_failed(&mut rec, &mut rec_error, w);
                 }
                 if let Err(e) = ep.lock.publish(msg) {
-                    eprintln!("truss_deploy: lock_status publish: {e:?}");
+                    tell!("truss_deploy: lock_status publish: {e:?}");
                 }
                 last_lock_key = Some(key);
                 next_lock = now + lock_period;
@@ -668,7 +668,7 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
             )
             .and_then(|_| r.finish());
         match w {
-            Ok(st) => println!(
+            Ok(st) => say!(
                 "truss_deploy: recorded {} messages to {} ({} bytes)",
                 st.messages,
                 st.path.display(),
@@ -682,7 +682,7 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
         let report = timing_report(tm, pub_period.as_secs_f64(), rate, dt, &a);
         if let Err(e) = std::fs::write(path, serde_json::to_string_pretty(&report).unwrap() + "\n")
         {
-            eprintln!("truss_deploy: cannot write {}: {e}", path.display());
+            tell!("truss_deploy: cannot write {}: {e}", path.display());
         }
     }
     // Clean shutdown: endpoints, spinner, node, participant (peers see us leave).
@@ -691,7 +691,7 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
     let _ = tokio::time::timeout(Duration::from_secs(3), spin).await;
     drop(node);
     drop(context);
-    println!(
+    say!(
         "truss_deploy: stopped ({}) after {} steps, t = {:.3} s, deployed {}, commands accepted {} rejected {}, {} publications, {} overruns",
         summary.stop_reason,
         summary.steps,
@@ -702,7 +702,7 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
         summary.publications,
         summary.overruns
     );
-    println!("truss_deploy: solver stats: {}", sim.solver_stats().line());
+    say!("truss_deploy: solver stats: {}", sim.solver_stats().line());
     match rec_error {
         Some(e) => Err(NodeError::Run(e)),
         None => Ok(summary),
@@ -717,7 +717,7 @@ fn record_failed(
     w: Result<(), String>,
 ) {
     if let Err(e) = w {
-        eprintln!("truss_deploy: {e}; recording stopped");
+        tell!("truss_deploy: {e}; recording stopped");
         *rec = None;
         *err = Some(e);
     }
@@ -738,7 +738,7 @@ fn book_command(
         Ok((cmd, info)) => {
             let (ok, log) = book.check(&cmd, model);
             if let Some(l) = log {
-                eprintln!("truss_deploy: {l}");
+                tell!("truss_deploy: {l}");
             }
             let src = info.source_timestamp().map(|t| t.to_nanos()).unwrap_or(0);
             ok.map(|v| (v, src, Instant::now()))
@@ -749,7 +749,7 @@ fn book_command(
                 other => format!("{other:?}"),
             };
             if let Some(l) = book.malformed(&why, Instant::now()) {
-                eprintln!("truss_deploy: {l}");
+                tell!("truss_deploy: {l}");
             }
             None
         }

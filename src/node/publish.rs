@@ -170,7 +170,7 @@ impl View {
                     let n = self.least_work_failures.get() + 1;
                     self.least_work_failures.set(n);
                     if n == 1 {
-                        eprintln!(
+                        tell!(
                             "warning: t = {} s: the least-work split of the member forces failed ({e}); \
                              /joint_states efforts are the solver's own split until it succeeds",
                             sim.state().t_s

@@ -128,7 +128,7 @@ impl<Req: Message + Clone + 'static, Resp: Message + 'static> Service<Req, Resp>
                 Err(e) => {
                     // the reader has moved past it: read on
                     if !self.bad_request_logged {
-                        eprintln!(
+                        tell!(
                             "truss_deploy: service {}: undecodable request skipped ({e:?}); further ones are not logged",
                             self.name
                         );
@@ -152,7 +152,7 @@ impl<Req: Message + Clone + 'static, Resp: Message + 'static> Service<Req, Resp>
             let matched = node.writer_matched_participant(writer, client);
             if matched || now >= h.deadline {
                 if !matched {
-                    eprintln!(
+                    tell!(
                         "truss_deploy: service {}: the client's reply reader did not match within {} s; replying anyway",
                         self.name,
                         REPLY_HOLD.as_secs()
@@ -171,7 +171,7 @@ impl<Req: Message + Clone + 'static, Resp: Message + 'static> Service<Req, Resp>
             .server
             .send_response_with_mapping(h.id, h.resp, h.mapping)
         {
-            eprintln!("truss_deploy: service {} response: {e:?}", self.name);
+            tell!("truss_deploy: service {} response: {e:?}", self.name);
         }
     }
 }
