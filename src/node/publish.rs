@@ -431,4 +431,67 @@ mod tests {
             );
         }
     }
+
+    /// While the mast's compliant latches engage, /joint_states effort of each
+    /// sleeve is the force through its latch (`latch_spring_force_n`, tension
+    /// positive), and sampled every 20 us from the engagement on, its largest
+    /// magnitude is the peak force the latch reports (to the sampling's reach:
+    /// 1e-3 here, never above it).
+    #[test]
+    fn engaging_latch_efforts_are_the_latch_forces() {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/models/pantograph_mast.toml");
+        let new_sim = || {
+            let model = crate::model::load(std::path::Path::new(path))
+                .expect("bundled model")
+                .model;
+            Simulator::new(model, Options::default()).expect("simulator")
+        };
+        // when the latches engage (a first run)
+        let mut probe = new_sim();
+        while probe.state().locks.is_empty() {
+            probe.step(0.05).expect("step");
+        }
+        let engaged_s = probe.state().locks[0].time_s;
+        let mut sim = new_sim();
+        let view = View::new(sim.model());
+        while sim.state().t_s + 0.05 < engaged_s {
+            sim.step(0.05).expect("step");
+        }
+        while sim.state().transients.is_empty() {
+            sim.step(2e-5).expect("step");
+        }
+        let mut largest = 0.0f64;
+        let mut samples = 0;
+        while !sim.state().transients.is_empty() && samples < 20_000 {
+            let stamp = sim_stamp(sim.state().t_s);
+            let (js, _) = view.state_messages(&mut sim, stamp, "world");
+            for tr in &sim.state().transients {
+                let name = sim.model().elements[tr.element].name();
+                let k = js
+                    .name
+                    .iter()
+                    .position(|n| n == name)
+                    .expect("sleeve published");
+                let f = sim.latch_spring_force_n(tr.element).unwrap();
+                assert_eq!(js.effort[k], f, "{name} at t = {}", sim.state().t_s);
+                largest = largest.max(f.abs());
+            }
+            sim.step(2e-5).expect("step");
+            samples += 1;
+        }
+        let peak = sim
+            .state()
+            .locks
+            .iter()
+            .filter_map(|l| l.peak_force_n)
+            .fold(0.0, f64::max);
+        assert!(
+            peak > 0.0 && samples > 100,
+            "peak {peak} N, {samples} samples"
+        );
+        assert!(
+            largest <= peak * (1.0 + 1e-9) && largest >= (1.0 - 1e-3) * peak,
+            "largest published {largest} N vs reported peak {peak} N"
+        );
+    }
 }
