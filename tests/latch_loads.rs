@@ -443,15 +443,15 @@ fn parallel_compliant_latches_share_by_stiffness() {
     let (k1, k2) = (3.0e6, 1.0e6);
     let zeta = 0.1;
     let c_total = zeta * 2.0 * ((k1 + k2) * m).sqrt();
-    let (c1, c2) = (0.75 * c_total, 0.25 * c_total);
-    let model = parse(
-        &compliant_model(m, f, start, lock, k1, c1, k2, c2),
-        "pair.toml",
-    )
-    .unwrap()
-    .model;
-    let mut sim = Simulator::new(model, Options::default()).unwrap();
-    run_until_settled(&mut sim, 0.05, 100);
+    // two sleeves on the same joints, deployed to rigid
+    let settled_pair = |c1: f64, c2: f64| {
+        let text = compliant_model(m, f, start, lock, k1, c1, k2, c2);
+        let model = parse(&text, "pair.toml").unwrap().model;
+        let mut sim = Simulator::new(model, Options::default()).unwrap();
+        run_until_settled(&mut sim, 0.05, 100);
+        sim
+    };
+    let sim = settled_pair(0.75 * c_total, 0.25 * c_total);
     let locks = &sim.state().locks;
     let p = |n: &str| {
         locks
@@ -472,14 +472,7 @@ fn parallel_compliant_latches_share_by_stiffness() {
     assert!(((p1 + p2) - total).abs() <= 1e-4 * total);
     // equal dampers: the ratio is no longer 3 and each peak is its own
     let (c1, c2) = (0.5 * c_total, 0.5 * c_total);
-    let model = parse(
-        &compliant_model(m, f, start, lock, k1, c1, k2, c2),
-        "pair.toml",
-    )
-    .unwrap()
-    .model;
-    let mut sim = Simulator::new(model, Options::default()).unwrap();
-    run_until_settled(&mut sim, 0.05, 100);
+    let sim = settled_pair(c1, c2);
     for (name, ki, ci) in [("S1", k1, c1), ("S2", k2, c2)] {
         let ev = sim.state().locks.iter().find(|l| l.name == name).unwrap();
         let (_, want) = sampled_member_peak(m, k1 + k2, c_total, f, v, ki, ci);
