@@ -206,7 +206,7 @@ impl Simulator {
         let (t, st) = (self.state.t_s, &self.settings);
         let mut due: Vec<usize> = Vec::new();
         for tr in &self.state.transients {
-            let window_done = t >= tr.window_end_s - 1e-12 * tr.period_s;
+            let window_done = window_over(tr, t);
             let calm = self.state.locks[tr.event]
                 .peak_force_n
                 .is_some_and(|p| tr.window_max_n - tr.window_min_n <= st.latch_settle_rel * p);
@@ -220,7 +220,7 @@ impl Simulator {
         }
         // a new window for those whose window ended
         for tr in &mut self.state.transients {
-            if t >= tr.window_end_s - 1e-12 * tr.period_s {
+            if window_over(tr, t) {
                 let f = tr.sign * tr.force_n;
                 (tr.window_max_n, tr.window_min_n) = (f, f);
                 tr.window_end_s += tr.period_s;
@@ -366,6 +366,12 @@ impl Simulator {
         }
         Ok(jumps)
     }
+}
+
+/// Whether a transient's current window of one period has ended at `t` (to
+/// roundoff of the period: sub-steps land on the window's end).
+fn window_over(tr: &LatchTransient, t: f64) -> bool {
+    t >= tr.window_end_s - 1e-12 * tr.period_s
 }
 
 /// A sleeve's lock gap g = l - L_lock (m), extension rate ldot (m/s) and
