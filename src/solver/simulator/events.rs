@@ -45,6 +45,18 @@ pub(super) fn crossed_unlatched(
     })
 }
 
+/// The cubic Hermite basis at fraction s of a step: [h00, h10, h01, h11],
+/// p(s) = h00 p0 + h10 h p0' + h01 p1 + h11 h p1'.
+pub(super) fn hermite_basis(s: f64) -> [f64; 4] {
+    let (s2, s3) = (s * s, s * s * s);
+    [
+        2.0 * s3 - 3.0 * s2 + 1.0,
+        s3 - 2.0 * s2 + s,
+        -2.0 * s3 + 3.0 * s2,
+        s3 - s2,
+    ]
+}
+
 /// Writes the cubic Hermite interpolant, at fraction s of a step of length h,
 /// of the joints `joints` into `out` (other entries untouched).
 fn hermite_joints(
@@ -54,13 +66,7 @@ fn hermite_joints(
     joints: &[usize],
     out: &mut [f64],
 ) {
-    let (s2, s3) = (s * s, s * s * s);
-    let (h00, h10, h01, h11) = (
-        2.0 * s3 - 3.0 * s2 + 1.0,
-        s3 - 2.0 * s2 + s,
-        -2.0 * s3 + 3.0 * s2,
-        s3 - s2,
-    );
+    let [h00, h10, h01, h11] = hermite_basis(s);
     for &j in joints {
         for i in 3 * j..3 * j + 3 {
             out[i] = h00 * x0[i] + h10 * h * v0[i] + h01 * x1[i] + h11 * h * v1[i];

@@ -448,11 +448,8 @@ pub(super) fn track_transient(
             h * fd0,
         );
         let p = |s: f64| {
-            let (s2, s3) = (s * s, s * s * s);
-            (2.0 * s3 - 3.0 * s2 + 1.0) * f0
-                + (s3 - 2.0 * s2 + s) * h * fd0
-                + (-2.0 * s3 + 3.0 * s2) * f1
-                + (s3 - s2) * h * fd1
+            let [h00, h10, h01, h11] = super::events::hermite_basis(s);
+            h00 * f0 + h10 * h * fd0 + h01 * f1 + h11 * h * fd1
         };
         let roots = if qa.abs() <= 1e-300 {
             [(qb != 0.0).then(|| -qc / qb), None]
