@@ -202,6 +202,15 @@ impl Core {
     /// such stop found none beyond the tolerance); and never more than the
     /// change itself (the plain criterion).
     ///
+    /// Friction: below its slip speed a pulley's friction direction is a
+    /// steep blend (a damper of mu theta T / slip speed), which the map takes
+    /// explicitly; with it the iteration does not contract at the step sizes
+    /// of a deployment (on a ring whose drive nearly balances, every step).
+    /// An iteration that stops contracting (ratio of successive changes at
+    /// least `newmark_newton_trigger`) while the blend is in play goes on
+    /// with Newton steps on the residual (stage `newton`), counted as
+    /// `newmark_newton`; the converged A solves the same equations.
+    ///
     /// Stalls: basic solves (redundant rows dropped) make a less contractive
     /// map than least-squares ones where the iterates leave the manifold, so
     /// a stalled iteration restarts with least-squares solves; near zero
@@ -219,9 +228,11 @@ impl Core {
         let cmd = &s.cable_tension_cmd_n;
         let amax = s.a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         self.lagged_friction = false;
+        self.blend_entry = false;
         let mut mode = base;
         let (mut last_change, mut stalls) = (f64::INFINITY, 0);
         let (mut best_change, mut no_progress) = (f64::INFINITY, 0);
+        let (mut newton, mut tried_newton) = (false, false);
         for _ in 0..st.newmark_max_iterations {
             self.stats.newmark_iterations += 1;
             self.newmark_update(s, h);
@@ -232,10 +243,11 @@ impl Core {
                 change = change.max((self.a[i] - self.a_guess[i]).abs());
                 scale = scale.max(self.a[i].abs());
             }
-            self.a_guess.copy_from_slice(&self.a);
-            // (rho is 0 after the first iterate, whose last change is infinite)
+            // (rho is 0 after the first iterate, whose last change is
+            // infinite; Newton iterates do not contract geometrically: their
+            // error is taken as the change)
             let rho = change / last_change;
-            let error = if rho > 0.0 && rho < st.newmark_rho_max {
+            let error = if !newton && rho > 0.0 && rho < st.newmark_rho_max {
                 (st.newmark_rho_safety * rho / (1.0 - rho) * change).min(change)
             } else {
                 change
@@ -243,8 +255,38 @@ impl Core {
             if error <= st.newmark_tol_rel * scale
                 || 0.25 * error * h * h <= st.newmark_tol_position_m
             {
+                self.a_guess.copy_from_slice(&self.a);
+                self.blend_entry = tried_newton && self.friction_blend_entered(model);
                 return Ok(());
             }
+            if newton {
+                if self.newton_advance(model, h, st)? {
+                    continue;
+                }
+                // (the line search failed: on with the plain iteration from
+                // the best iterate, and its stall fallbacks)
+                self.stats.fallbacks.newmark_newton_failed += 1;
+                newton = false;
+                self.newton_best();
+                (last_change, stalls) = (f64::INFINITY, 0);
+                (best_change, no_progress) = (f64::INFINITY, 0);
+                continue;
+            }
+            // Newton where the friction blend is what keeps the iteration from
+            // contracting (not a stall at the roundoff floor of the solves:
+            // that is the least-squares restart's)
+            if rho >= st.newmark_newton_trigger
+                && !self.lagged_friction
+                && !tried_newton
+                && self.friction_blend_active(model)
+            {
+                newton = true;
+                tried_newton = true;
+                self.stats.fallbacks.newmark_newton += 1;
+                self.newton_start(model, h, st)?;
+                continue;
+            }
+            self.a_guess.copy_from_slice(&self.a);
             stalls = if change >= st.newmark_stall_ratio * last_change {
                 stalls + 1
             } else {
