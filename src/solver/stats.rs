@@ -52,14 +52,14 @@ pub struct SolverStats {
 pub struct Fallbacks {
     /// A Newmark iteration did not converge and the sub-step was halved.
     pub substep_halvings: u64,
-    /// A sub-step in which a pulley's sliding entered the friction blend
-    /// (with Newton steps) was halved to resolve the transient
-    /// (`resolve_blend_entry`).
+    /// A sub-step that needed Newton steps went through the friction's fast
+    /// transient in the blend and was halved to resolve it (`blend_change_rel`).
     pub blend_entry_halvings: u64,
     /// A Newmark iteration that stopped contracting went on with Newton steps.
     pub newmark_newton: u64,
-    /// ... whose line search came below `newmark_newton_min_step` (the
-    /// sub-step is then halved).
+    /// ... whose line search gave up (`newmark_newton_line_search_max`,
+    /// `newmark_newton_min_step`): the plain iteration went on from the best
+    /// iterate, with its own fallbacks.
     pub newmark_newton_failed: u64,
     /// A stalled Newmark iteration restarted with least-squares solves.
     pub newmark_min_norm: u64,

@@ -45,8 +45,11 @@ pub(super) struct Core {
     /// Buffers of the Newton steps of the Newmark iteration.
     pub newton: NewtonWork,
     /// The last Newmark step needed Newton steps and a pulley's sliding
-    /// entered the friction blend in it (see `resolve_blend_entry`).
+    /// went through the friction blend's fast transient (`blend_change_rel`).
     pub blend_entry: bool,
+    /// The last Newmark step needed Newton steps: the next one starts them
+    /// at its first iterate (where the friction blend is in play).
+    pub newton_last: bool,
     /// Accelerations at the start of the last accepted step, and its length (None
     /// after a latch or a reset: no extrapolation across a velocity jump).
     pub a_prev: Vec<f64>,
@@ -92,6 +95,7 @@ impl Core {
                 .collect(),
             lagged_friction: false,
             blend_entry: false,
+            newton_last: false,
             newton: NewtonWork::new(model.solver.newmark_newton_krylov_max, n, m),
             a_prev: vec![0.0; n],
             prev_h: None,

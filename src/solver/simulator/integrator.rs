@@ -256,7 +256,12 @@ impl Core {
                 || 0.25 * error * h * h <= st.newmark_tol_position_m
             {
                 self.a_guess.copy_from_slice(&self.a);
-                self.blend_entry = tried_newton && self.friction_blend_entered(model);
+                // (only where the blend was stiff: a Newton switch at a stall
+                // of another origin changes no step length)
+                self.blend_entry = tried_newton
+                    && self.newton.gain >= 1.0
+                    && self.friction_blend_entered(model, st.blend_change_rel);
+                self.newton_last = tried_newton;
                 return Ok(());
             }
             if newton {
@@ -275,7 +280,9 @@ impl Core {
             // Newton where the friction blend is what keeps the iteration from
             // contracting (not a stall at the roundoff floor of the solves:
             // that is the least-squares restart's)
-            if rho >= st.newmark_newton_trigger
+            // (from the first iterate where the last Newmark step needed
+            // Newton: the plain iterates would run off to a saturated side)
+            if (rho >= st.newmark_newton_trigger || self.newton_last)
                 && !self.lagged_friction
                 && !tried_newton
                 && self.friction_blend_active(model)
@@ -318,6 +325,7 @@ impl Core {
                 (last_change, stalls) = (f64::INFINITY, 0);
             }
         }
+        self.newton_last = false;
         Err(SolverError::NoConvergence { t_s: s.t_s + h })
     }
 }

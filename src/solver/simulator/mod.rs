@@ -303,7 +303,7 @@ impl Simulator {
                 other => other?,
             }
             let st = &self.settings;
-            if self.core.blend_entry && st.resolve_blend_entry && h > dt * st.min_substep_fraction {
+            if self.core.blend_entry && h > dt * st.min_substep_fraction {
                 self.core.stats.fallbacks.blend_entry_halvings += 1;
                 h_try = 0.5 * h;
                 continue;

@@ -37,6 +37,19 @@ pub(super) struct NewtonWork {
     norm_acc: f64,
     dir: Vec<f64>,
     alpha: f64,
+    /// Line search: trials since the last accepted iterate, the bracket's
+    /// ends (alpha, <R, d>) on the accepted side and across the sign change,
+    /// and which end the last trial replaced (Illinois).
+    trials: usize,
+    lo: (f64, f64),
+    hi: Option<(f64, f64)>,
+    kept_side: i8,
+    r_dir0: f64,
+    /// The largest |G' v| over the GMRES basis vectors (unit kinetic norm)
+    /// of this Newmark step's Newton steps: the friction blend's stiffness
+    /// h/2 |P M^-1 dQ/dV| seen by the iteration (1 and above: it alone
+    /// makes the plain iteration diverge).
+    pub gain: f64,
     // GMRES: basis (kmax + 1 vectors), Hessenberg matrix (column-major,
     // (kmax + 1) x kmax), Givens rotations, rhs and solution.
     basis: Vec<f64>,
@@ -63,6 +76,12 @@ impl NewtonWork {
             norm_acc: f64::INFINITY,
             dir: vec![0.0; n],
             alpha: 1.0,
+            trials: 0,
+            lo: (0.0, 0.0),
+            hi: None,
+            kept_side: 0,
+            r_dir0: 0.0,
+            gain: 0.0,
             basis: vec![0.0; (kmax + 1) * n],
             hess: vec![0.0; (kmax + 1) * kmax],
             cs: vec![0.0; kmax],
@@ -102,14 +121,21 @@ impl Core {
         st: &SolverSettings,
     ) -> Result<(), SolverError> {
         self.newton.norm_acc = f64::INFINITY;
+        self.newton.gain = 0.0;
         self.newton_advance(model, h, st).map(|_| ())
     }
 
     /// After the map value `a` of the Newton iterate `a_guess` is computed:
     /// accepts it (its residual's kinetic norm decreased enough) and puts the
-    /// next Newton iterate in `a_guess`, or halves the step back from the
-    /// accepted one. Returns false where the step would fall below
-    /// `newmark_newton_min_step` (the iteration has failed).
+    /// next Newton iterate in `a_guess`, or moves the step length along the
+    /// direction (line search). Returns false where the line search gives up
+    /// (the iteration has failed).
+    ///
+    /// Line search: along d the residual's component r(alpha) = <R(A + alpha
+    /// d), d> changes sign where the step crosses the blend (a step from a
+    /// saturated iterate is the plain one and overshoots to the other side);
+    /// once a trial has bracketed that sign change, the next alpha is the
+    /// Illinois (regula falsi) point of the bracket, else alpha is halved.
     pub(super) fn newton_advance(
         &mut self,
         model: &Model,
@@ -117,26 +143,71 @@ impl Core {
         st: &SolverSettings,
     ) -> Result<bool, SolverError> {
         let n = self.a.len();
-        let mut norm2 = 0.0;
+        let (mut norm2, mut r_dir) = (0.0, 0.0);
         for i in 0..n {
             let r = self.a[i] - self.a_guess[i];
             norm2 += model.mass[i] * r * r;
+            r_dir += model.mass[i] * r * self.newton.dir[i];
         }
         let norm = norm2.sqrt();
         let nw = &mut self.newton;
-        if norm.is_finite() && norm <= (1.0 - st.newmark_newton_decrease * nw.alpha) * nw.norm_acc {
+        // (once a trial has bracketed the sign change of <R, d>, a decrease
+        // is accepted only near it: a trial still on the saturated side would
+        // start the next Newton step from there and overshoot again)
+        let near = nw.hi.is_none() || r_dir.abs() <= st.newmark_newton_curvature * nw.r_dir0.abs();
+        if norm.is_finite()
+            && norm <= (1.0 - st.newmark_newton_decrease * nw.alpha) * nw.norm_acc
+            && near
+        {
             nw.a_acc.copy_from_slice(&self.a_guess);
             for i in 0..n {
                 nw.r_acc[i] = self.a[i] - self.a_guess[i];
             }
             nw.norm_acc = norm;
-            nw.alpha = 1.0;
             self.newton_direction(model, h, st)?;
             self.stats.newton_steps += 1;
+            let nw = &mut self.newton;
+            nw.alpha = 1.0;
+            nw.trials = 0;
+            nw.lo = (0.0, m_dot(&model.mass, &nw.r_acc, &nw.dir));
+            nw.r_dir0 = nw.lo.1;
+            nw.hi = None;
+            nw.kept_side = 0;
         } else {
-            nw.alpha *= 0.5;
             self.stats.newton_backtracks += 1;
-            if nw.alpha < st.newmark_newton_min_step {
+            nw.trials += 1;
+            if nw.trials > st.newmark_newton_line_search_max || !r_dir.is_finite() {
+                return Ok(false);
+            }
+            let (a_lo, r_lo) = nw.lo;
+            if r_dir * r_lo > 0.0 {
+                nw.lo = (nw.alpha, r_dir);
+                if nw.kept_side == 1 {
+                    // (Illinois: the far end kept twice, its value halved)
+                    if let Some(hi) = nw.hi.as_mut() {
+                        hi.1 *= 0.5;
+                    }
+                }
+                nw.kept_side = 1;
+            } else {
+                nw.hi = Some((nw.alpha, r_dir));
+                if nw.kept_side == -1 {
+                    nw.lo.1 *= 0.5;
+                }
+                nw.kept_side = -1;
+            }
+            nw.alpha = match nw.hi {
+                Some((a_hi, r_hi)) if nw.lo.1 != r_hi => {
+                    let (a_lo, r_lo) = nw.lo;
+                    a_lo - r_lo * (a_hi - a_lo) / (r_hi - r_lo)
+                }
+                _ => {
+                    // (no sign change yet: back toward the accepted iterate)
+                    nw.lo = (a_lo, r_lo);
+                    0.5 * nw.alpha
+                }
+            };
+            if !(nw.alpha >= st.newmark_newton_min_step) {
                 return Ok(false);
             }
         }
@@ -149,9 +220,9 @@ impl Core {
 
     /// Whether the friction direction's blend is in play in this step: a
     /// pulley (with friction) slides slower than its slip speed in the
-    /// trial's cable readings, or the other way than at the step start (the
-    /// iterates of a step across the blend can alternate between its two
-    /// saturated sides).
+    /// trial's cable readings or at the step start, or the other way than at
+    /// the step start (the iterates of a step across the blend can alternate
+    /// between its two saturated sides).
     pub(super) fn friction_blend_active(&self, model: &Model) -> bool {
         let cables = model
             .cables
@@ -161,18 +232,19 @@ impl Core {
         cables
             .filter(|((c, _), _)| c.friction_mu > 0.0)
             .any(|((c, e), start)| {
-                e.sliding_m_s
-                    .iter()
-                    .zip(start)
-                    .any(|(s, s0)| s.abs() < c.slip_speed_m_s || s * s0 < 0.0)
+                e.sliding_m_s.iter().zip(start).any(|(s, s0)| {
+                    s.abs() < c.slip_speed_m_s || s0.abs() < c.slip_speed_m_s || s * s0 < 0.0
+                })
             })
     }
 
-    /// Whether a pulley (with friction) slides inside the blend in the
-    /// trial's cable readings, or the other way than at the step start, while
-    /// it slid at least the slip speed at the step start: the step entered
-    /// the blend from outside it.
-    pub(super) fn friction_blend_entered(&self, model: &Model) -> bool {
+    /// Whether the step went through a fast part of the friction's transient:
+    /// a pulley (with friction) inside the blend at the step's start or end,
+    /// or on the other side at its end, changed its sliding by more than
+    /// `change_rel` times its slip speed. (Inside the blend the friction is a
+    /// damper whose time constant the step exceeds many times; a change of
+    /// the sliding there is that transient, stepped over.)
+    pub(super) fn friction_blend_entered(&self, model: &Model, change_rel: f64) -> bool {
         let cables = model
             .cables
             .iter()
@@ -182,10 +254,10 @@ impl Core {
             .filter(|((c, _), _)| c.friction_mu > 0.0)
             .any(|((c, e), start)| {
                 let slip = c.slip_speed_m_s;
-                e.sliding_m_s
-                    .iter()
-                    .zip(start)
-                    .any(|(s, s0)| s0.abs() >= slip && (s.abs() < slip || s * s0 < 0.0))
+                e.sliding_m_s.iter().zip(start).any(|(s, s0)| {
+                    let in_play = s.abs() < slip || s0.abs() < slip || s * s0 < 0.0;
+                    in_play && (s - s0).abs() > change_rel * slip
+                })
             })
     }
 
@@ -221,9 +293,14 @@ impl Core {
             &mut nw.da,
             &mut nw.lambda,
         )?;
+        let mut gain2 = 0.0;
         for i in 0..n {
             w[i] -= nw.da[i];
+            gain2 += model.mass[i] * nw.da[i] * nw.da[i];
         }
+        // (|G' x| for the unit x: at least 1 where the blend is what keeps
+        // the plain iteration from contracting)
+        nw.gain = nw.gain.max(gain2.sqrt());
         self.book_solve(report);
         self.stats.newton_krylov_iterations += 1;
         Ok(())
