@@ -998,6 +998,76 @@ fn evaluate_accumulates_sliding_and_friction_over_several_pulleys() {
     }
 }
 
+/// The Newton steps of the Newmark iteration steer by the derivative of the
+/// cable forces with respect to the joint velocities through the friction
+/// direction's blend (`cable::add_friction_derivative`); oracle: central
+/// differences of `evaluate` + `add_forces` along random velocity changes, at
+/// velocities that put some pulleys inside the blend and some beyond it.
+#[test]
+fn friction_derivative_matches_finite_differences_of_the_forces() {
+    let x = vec![
+        0.0, 0.0, 0.0, //
+        1.0, 0.2, 0.1, //
+        1.5, 1.1, -0.2, //
+        0.4, 1.8, 0.3, //
+        -0.3, 1.2, 0.9, //
+        0.2, 0.4, 1.4,
+    ];
+    let (n, path) = (x.len(), vec![0, 1, 2, 3, 4, 5]);
+    let slip = 0.3;
+    let c = test_cable(path, 0.25, 0.0, 0.05, slip);
+    let forces = |v: &[f64]| {
+        let mut ev = CableEval::for_cable(&c);
+        cable::evaluate(&c, 40.0, &x, v, None, &mut ev);
+        let mut q = vec![0.0; n];
+        cable::add_forces(&c, &ev, &x, &mut q);
+        (q, ev)
+    };
+    let mut rng = Rng::new(77);
+    let (mut inside, mut beyond, mut checked) = (0, 0, 0);
+    while checked < 3 * N_CONFIGS {
+        let v = rng.vec(n, 0.5);
+        let dv = rng.vec(n, 1.0);
+        let (_, ev) = forces(&v);
+        // (away from the kinks at the slip speed, where the derivative jumps)
+        if ev.sliding_m_s.iter().any(|s| (s.abs() - slip).abs() < 1e-3) {
+            continue;
+        }
+        checked += 1;
+        inside += ev.sliding_m_s.iter().filter(|s| s.abs() < slip).count();
+        beyond += ev.sliding_m_s.iter().filter(|s| s.abs() >= slip).count();
+        let mut dq = vec![0.0; n];
+        cable::add_friction_derivative(&c, &ev, &x, &dv, &mut dq);
+        let eps = 1e-6;
+        let vp: Vec<f64> = v.iter().zip(&dv).map(|(a, b)| a + eps * b).collect();
+        let vm: Vec<f64> = v.iter().zip(&dv).map(|(a, b)| a - eps * b).collect();
+        let (qp, _) = forces(&vp);
+        let (qm, _) = forces(&vm);
+        let fd: Vec<f64> = qp
+            .iter()
+            .zip(&qm)
+            .map(|(a, b)| (a - b) / (2.0 * eps))
+            .collect();
+        let scale = fd.iter().fold(1.0f64, |m, v| m.max(v.abs()));
+        for i in 0..n {
+            assert!(
+                (dq[i] - fd[i]).abs() <= FD_TOL * scale,
+                "coordinate {i}: {} vs finite differences {} (sliding {:?})",
+                dq[i],
+                fd[i],
+                ev.sliding_m_s
+            );
+        }
+        if ev.sliding_m_s.iter().all(|s| s.abs() >= slip) {
+            assert!(dq.iter().all(|v| *v == 0.0), "saturated: no derivative");
+        }
+    }
+    assert!(
+        inside > 0 && beyond > 0,
+        "{inside} inside, {beyond} beyond the blend"
+    );
+}
+
 #[test]
 fn cable_inertia_on_the_arc_without_friction() {
     let (rho, r, theta) = (0.02, 0.04, 2.0);

@@ -174,6 +174,51 @@ fn sliding_accel(c: &Cable, k: usize, x: &[f64], v: &[f64], a: &[f64]) -> f64 {
     -acc
 }
 
+/// Adds dQ = (dQ/dV) dv to `dq`: the change of the segment forces under a
+/// change dv of the joint velocities through the friction direction's blend,
+/// at the evaluation `eval` (of this x and some v). Only pulleys sliding
+/// slower than `slip_speed_m_s` contribute (elsewhere sigma = +-1 does not
+/// depend on the speed). With g_j the force of a unit tension in segment j
+/// (its end joints pulled together), s_k = sum_{j >= k} g_j . v, and T_j
+/// carrying the factor e^{-mu sigma_k theta_k} of every pulley k <= j before
+/// it: dT_j/ds_k = -mu theta_k T_j / s_slip. (Exact without cable inertia;
+/// with it, the inertia term's dependence on sigma is left out: the
+/// derivative only steers an iteration whose residual is exact.)
+pub fn add_friction_derivative(c: &Cable, eval: &CableEval, x: &[f64], dv: &[f64], dq: &mut [f64]) {
+    let segs = c.path.len() - 1;
+    if segs < 2 || c.friction_mu == 0.0 {
+        return;
+    }
+    // g_j . dv for segment j
+    let g_dot = |j: usize| -> f64 {
+        let (p, q) = (c.path[j], c.path[j + 1]);
+        let d = at(x, q) - at(x, p);
+        -d.dot(&(at(dv, q) - at(dv, p))) / d.norm()
+    };
+    let mut ds: f64 = (1..segs).map(g_dot).sum(); // at the pulley at path[1]
+    let mut cum = 0.0;
+    for j in 1..segs {
+        // the pulley at path[j], just before segment j
+        let s = eval.sliding_m_s[j - 1];
+        if s.abs() < c.slip_speed_m_s {
+            cum += c.friction_mu * eval.wrap_rad[j - 1] / c.slip_speed_m_s * ds;
+        }
+        let gd = g_dot(j);
+        ds -= gd;
+        let dt = -eval.segment_tension_n[j] * cum;
+        if dt == 0.0 {
+            continue;
+        }
+        let (p, r) = (c.path[j], c.path[j + 1]);
+        let d = at(x, r) - at(x, p);
+        let f = d * (dt / d.norm());
+        for k in 0..3 {
+            dq[3 * p + k] += f[k];
+            dq[3 * r + k] -= f[k];
+        }
+    }
+}
+
 /// Adds the segment forces to Q: segment j pulls its two end joints toward each other.
 pub fn add_forces(c: &Cable, eval: &CableEval, x: &[f64], q: &mut [f64]) {
     for j in 0..c.path.len() - 1 {

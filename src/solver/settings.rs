@@ -49,6 +49,50 @@ pub struct SolverSettings {
     /// ... and this many in a row switch to least-squares solves, then to the
     /// friction direction of the step start.
     pub newmark_stall_count: usize,
+    /// A ratio of successive changes of at least this switches the iteration
+    /// to Newton steps on the residual A - G(A), where G is the map of the
+    /// fixed-point iteration and its derivative is taken as that of the
+    /// pulley friction's blend (the one stiff term the iteration treats
+    /// explicitly: below its slip speed a pulley's friction acts as a damper
+    /// of mu theta T / slip_speed, ~1e3 N s/m on the double ring, against
+    /// joint masses of 0.25 kg). Set it above any ratio (e.g. 1e300) to keep
+    /// the plain iteration.
+    pub newmark_newton_trigger: f64,
+    /// Newton steps solve (I - G') d = G(A) - A by GMRES (each iteration one
+    /// constrained solve; G' has the rank of the structure's free motions at
+    /// most, so few are needed) until the residual is at most this fraction
+    /// of the right-hand side ...
+    pub newmark_newton_krylov_tol_rel: f64,
+    /// ... or for at most this many iterations.
+    pub newmark_newton_krylov_max: usize,
+    /// A Newton step is taken if it shrinks the kinetic norm of the residual
+    /// by at least this fraction of the step taken (alpha), else ...
+    pub newmark_newton_decrease: f64,
+    /// ... its length along the Newton direction searched (halved, or by
+    /// regula falsi on the residual's component along it once that changed
+    /// sign) for at most `newmark_newton_line_search_max` trials and down to
+    /// this fraction of it; beyond either the Newton steps give up and the
+    /// plain iteration goes on with its fallbacks.
+    pub newmark_newton_min_step: f64,
+    pub newmark_newton_line_search_max: usize,
+    /// Once a trial has crossed the sign change of the residual's component
+    /// along the direction, a trial is accepted only where that component is
+    /// at most this fraction of its value at the accepted iterate (near the
+    /// crossing: a trial left on a saturated side would overshoot again).
+    pub newmark_newton_curvature: f64,
+    /// A sub-step that needed Newton steps and in which a pulley in the
+    /// friction blend at its start or end (or on the other side at its end)
+    /// changed its sliding by more than this fraction of its slip speed is
+    /// halved, down to `min_substep_fraction`: the friction's fast transient
+    /// inside the blend (time constant m / (mu theta T / slip speed), ~1e-3 s
+    /// on the double ring) is then resolved instead of stepped over. Stepped
+    /// over, the average-acceleration rule leaves it ringing (the velocity
+    /// along it alternates, decaying by (1 - x) / (1 + x) per step, x = h/2
+    /// times its rate, x ~ 86 for the capstan-hold test), which biases a
+    /// creep and costs the energy ledger its accuracy (rerouted ring: motor
+    /// work 2.1x its dt -> 0 value, balance 3.9e-5 instead of 6e-7). A
+    /// steady creep changes its sliding little per step and steps whole.
+    pub blend_change_rel: f64,
     /// Smallest sub-step, as a fraction of the requested step, tried before a
     /// non-converging Newmark iteration is reported.
     pub min_substep_fraction: f64,
@@ -119,6 +163,14 @@ impl Default for SolverSettings {
             newmark_rho_max: 0.1,
             newmark_stall_ratio: 0.9,
             newmark_stall_count: 4,
+            newmark_newton_trigger: 0.5,
+            newmark_newton_krylov_tol_rel: 1e-6,
+            newmark_newton_krylov_max: 10,
+            newmark_newton_decrease: 1e-4,
+            newmark_newton_min_step: 1e-6,
+            newmark_newton_line_search_max: 20,
+            newmark_newton_curvature: 0.25,
+            blend_change_rel: 0.25,
             min_substep_fraction: 1.0 / 1024.0,
             max_substeps: 10_000,
             step_end_rel: 1e-12,
@@ -165,6 +217,15 @@ impl SolverSettings {
             ("newmark_rho_safety", self.newmark_rho_safety),
             ("newmark_rho_max", self.newmark_rho_max),
             ("newmark_stall_ratio", self.newmark_stall_ratio),
+            ("newmark_newton_trigger", self.newmark_newton_trigger),
+            (
+                "newmark_newton_krylov_tol_rel",
+                self.newmark_newton_krylov_tol_rel,
+            ),
+            ("newmark_newton_decrease", self.newmark_newton_decrease),
+            ("newmark_newton_min_step", self.newmark_newton_min_step),
+            ("newmark_newton_curvature", self.newmark_newton_curvature),
+            ("blend_change_rel", self.blend_change_rel),
             ("min_substep_fraction", self.min_substep_fraction),
             ("step_end_rel", self.step_end_rel),
             ("consistent_tol_rel", self.consistent_tol_rel),
@@ -193,6 +254,13 @@ impl SolverSettings {
             ),
             ("newmark_rho_max", self.newmark_rho_max),
             ("newmark_stall_ratio", self.newmark_stall_ratio),
+            (
+                "newmark_newton_krylov_tol_rel",
+                self.newmark_newton_krylov_tol_rel,
+            ),
+            ("newmark_newton_decrease", self.newmark_newton_decrease),
+            ("newmark_newton_min_step", self.newmark_newton_min_step),
+            ("newmark_newton_curvature", self.newmark_newton_curvature),
             ("min_substep_fraction", self.min_substep_fraction),
             ("step_end_rel", self.step_end_rel),
         ] {
@@ -204,6 +272,11 @@ impl SolverSettings {
             ("projection_max_iterations", self.projection_max_iterations),
             ("newmark_max_iterations", self.newmark_max_iterations),
             ("newmark_stall_count", self.newmark_stall_count),
+            ("newmark_newton_krylov_max", self.newmark_newton_krylov_max),
+            (
+                "newmark_newton_line_search_max",
+                self.newmark_newton_line_search_max,
+            ),
             ("max_substeps", self.max_substeps),
             ("consistent_max_iterations", self.consistent_max_iterations),
             ("root_max_iterations", self.root_max_iterations),

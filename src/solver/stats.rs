@@ -17,8 +17,15 @@ pub struct SolverStats {
     /// Newmark steps computed (accepted or not: root-search and dip-check
     /// trials, halved sub-steps).
     pub newmark_steps: u64,
-    /// Fixed-point iterations over all Newmark steps (each one constrained solve).
+    /// Fixed-point iterations over all Newmark steps (each one constrained
+    /// solve), Newton iterations included.
     pub newmark_iterations: u64,
+    /// Newton steps (directions) of Newmark iterations switched to Newton,
+    /// the GMRES iterations computing them (one constrained solve each), and
+    /// the halvings of their line search.
+    pub newton_steps: u64,
+    pub newton_krylov_iterations: u64,
+    pub newton_backtracks: u64,
     /// Numeric factorizations made, and factor requests served by a kept one.
     pub factorizations: u64,
     pub factorizations_reused: u64,
@@ -45,6 +52,15 @@ pub struct SolverStats {
 pub struct Fallbacks {
     /// A Newmark iteration did not converge and the sub-step was halved.
     pub substep_halvings: u64,
+    /// A sub-step that needed Newton steps went through the friction's fast
+    /// transient in the blend and was halved to resolve it (`blend_change_rel`).
+    pub blend_entry_halvings: u64,
+    /// A Newmark iteration that stopped contracting went on with Newton steps.
+    pub newmark_newton: u64,
+    /// ... whose line search gave up (`newmark_newton_line_search_max`,
+    /// `newmark_newton_min_step`): the plain iteration went on from the best
+    /// iterate, with its own fallbacks.
+    pub newmark_newton_failed: u64,
     /// A stalled Newmark iteration restarted with least-squares solves.
     pub newmark_min_norm: u64,
     /// A stalled Newmark iteration restarted with the friction direction of the step start.
@@ -87,9 +103,10 @@ impl SolverStats {
         let f = &self.fallbacks;
         format!(
             "{} steps, {} sub-steps, {} Newmark steps ({:.2} iterations each), \
+             {} Newton steps ({} GMRES iterations, {} backtracks), \
              {} factorizations ({} reused, {} probes), {} solves ({:.2} iterations each), \
-             {} latch searches ({} trial steps), {} latches; fallbacks: {} halvings, \
-             {} Newmark min-norm, {} lagged friction, {} projection min-norm, {} velocity min-norm, \
+             {} latch searches ({} trial steps), {} latches; fallbacks: {} halvings ({} at blend entries), \
+             {} Newton switches ({} failed), {} Newmark min-norm, {} lagged friction, {} projection min-norm, {} velocity min-norm, \
              {} refactored, {} re-probed, {} least-squares, {} unconverged solves, \
              {} dips rejected ({} checks failed), {} root searches at their limit, \
              {} inertia fixed points unconverged, {} latches unsettled at their limit, \
@@ -98,6 +115,9 @@ impl SolverStats {
             self.substeps,
             self.newmark_steps,
             self.newmark_iterations as f64 / self.newmark_steps.max(1) as f64,
+            self.newton_steps,
+            self.newton_krylov_iterations,
+            self.newton_backtracks,
             self.factorizations,
             self.factorizations_reused,
             self.probes,
@@ -107,6 +127,9 @@ impl SolverStats {
             self.latch_search_steps,
             self.latches,
             f.substep_halvings,
+            f.blend_entry_halvings,
+            f.newmark_newton,
+            f.newmark_newton_failed,
             f.newmark_min_norm,
             f.newmark_lagged_friction,
             f.projection_min_norm,

@@ -5,6 +5,7 @@
 //! `Core::correction`, which take the solve mode as an argument and book what
 //! the backend reports in `stats`.
 
+use super::newton::NewtonWork;
 use crate::solver::cable::CableEval;
 use crate::solver::jacobian::Jacobian;
 use crate::solver::least_work::LeastWork;
@@ -41,6 +42,14 @@ pub(super) struct Core {
     /// current iteration takes the friction direction from them.
     pub friction_sliding: Vec<Vec<f64>>,
     pub lagged_friction: bool,
+    /// Buffers of the Newton steps of the Newmark iteration.
+    pub newton: NewtonWork,
+    /// The last Newmark step needed Newton steps and a pulley's sliding
+    /// went through the friction blend's fast transient (`blend_change_rel`).
+    pub blend_entry: bool,
+    /// The last Newmark step needed Newton steps: the next one starts them
+    /// at its first iterate (where the friction blend is in play).
+    pub newton_last: bool,
     /// Accelerations at the start of the last accepted step, and its length (None
     /// after a latch or a reset: no extrapolation across a velocity jump).
     pub a_prev: Vec<f64>,
@@ -85,6 +94,9 @@ impl Core {
                 .map(|c| vec![0.0; c.path.len().saturating_sub(2)])
                 .collect(),
             lagged_friction: false,
+            blend_entry: false,
+            newton_last: false,
+            newton: NewtonWork::new(model.solver.newmark_newton_krylov_max, n, m),
             a_prev: vec![0.0; n],
             prev_h: None,
             a_prev2: vec![0.0; n],
@@ -102,6 +114,7 @@ impl Core {
         for b in [&mut self.c, &mut self.r, &mut self.mu, &mut self.lambda] {
             b.resize(m, 0.0);
         }
+        self.newton.set_rows(m);
     }
 
     /// The inverse masses the solves use: M^-1, or (M + h/2 C)^-1 inside an
@@ -133,7 +146,7 @@ impl Core {
         s.probes += u64::from(r.probed);
     }
 
-    fn book_solve(&mut self, r: SolveReport) {
+    pub(super) fn book_solve(&mut self, r: SolveReport) {
         let s = &mut self.stats;
         s.solves += 1;
         s.solve_iterations += r.iterations as u64;

@@ -202,6 +202,15 @@ impl Core {
     /// such stop found none beyond the tolerance); and never more than the
     /// change itself (the plain criterion).
     ///
+    /// Friction: below its slip speed a pulley's friction direction is a
+    /// steep blend (a damper of mu theta T / slip speed), which the map takes
+    /// explicitly; with it the iteration does not contract at the step sizes
+    /// of a deployment (on a ring whose drive nearly balances, every step).
+    /// An iteration that stops contracting (ratio of successive changes at
+    /// least `newmark_newton_trigger`) while the blend is in play goes on
+    /// with Newton steps on the residual (stage `newton`), counted as
+    /// `newmark_newton`; the converged A solves the same equations.
+    ///
     /// Stalls: basic solves (redundant rows dropped) make a less contractive
     /// map than least-squares ones where the iterates leave the manifold, so
     /// a stalled iteration restarts with least-squares solves; near zero
@@ -219,9 +228,11 @@ impl Core {
         let cmd = &s.cable_tension_cmd_n;
         let amax = s.a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         self.lagged_friction = false;
+        self.blend_entry = false;
         let mut mode = base;
         let (mut last_change, mut stalls) = (f64::INFINITY, 0);
         let (mut best_change, mut no_progress) = (f64::INFINITY, 0);
+        let (mut newton, mut tried_newton) = (false, false);
         for _ in 0..st.newmark_max_iterations {
             self.stats.newmark_iterations += 1;
             self.newmark_update(s, h);
@@ -232,10 +243,11 @@ impl Core {
                 change = change.max((self.a[i] - self.a_guess[i]).abs());
                 scale = scale.max(self.a[i].abs());
             }
-            self.a_guess.copy_from_slice(&self.a);
-            // (rho is 0 after the first iterate, whose last change is infinite)
+            // (rho is 0 after the first iterate, whose last change is
+            // infinite; Newton iterates do not contract geometrically: their
+            // error is taken as the change)
             let rho = change / last_change;
-            let error = if rho > 0.0 && rho < st.newmark_rho_max {
+            let error = if !newton && rho > 0.0 && rho < st.newmark_rho_max {
                 (st.newmark_rho_safety * rho / (1.0 - rho) * change).min(change)
             } else {
                 change
@@ -243,8 +255,45 @@ impl Core {
             if error <= st.newmark_tol_rel * scale
                 || 0.25 * error * h * h <= st.newmark_tol_position_m
             {
+                self.a_guess.copy_from_slice(&self.a);
+                // (only where the blend was stiff: a Newton switch at a stall
+                // of another origin changes no step length)
+                self.blend_entry = tried_newton
+                    && self.newton.gain >= 1.0
+                    && self.friction_blend_entered(model, st.blend_change_rel);
+                self.newton_last = tried_newton;
                 return Ok(());
             }
+            if newton {
+                if self.newton_advance(model, h, st)? {
+                    continue;
+                }
+                // (the line search failed: on with the plain iteration from
+                // the best iterate, and its stall fallbacks)
+                self.stats.fallbacks.newmark_newton_failed += 1;
+                newton = false;
+                self.newton_best();
+                (last_change, stalls) = (f64::INFINITY, 0);
+                (best_change, no_progress) = (f64::INFINITY, 0);
+                continue;
+            }
+            // Newton where the friction blend is what keeps the iteration from
+            // contracting (not a stall at the roundoff floor of the solves:
+            // that is the least-squares restart's)
+            // (from the first iterate where the last Newmark step needed
+            // Newton: the plain iterates would run off to a saturated side)
+            if (rho >= st.newmark_newton_trigger || self.newton_last)
+                && !self.lagged_friction
+                && !tried_newton
+                && self.friction_blend_active(model)
+            {
+                newton = true;
+                tried_newton = true;
+                self.stats.fallbacks.newmark_newton += 1;
+                self.newton_start(model, h, st)?;
+                continue;
+            }
+            self.a_guess.copy_from_slice(&self.a);
             stalls = if change >= st.newmark_stall_ratio * last_change {
                 stalls + 1
             } else {
@@ -276,6 +325,7 @@ impl Core {
                 (last_change, stalls) = (f64::INFINITY, 0);
             }
         }
+        self.newton_last = false;
         Err(SolverError::NoConvergence { t_s: s.t_s + h })
     }
 }

@@ -21,6 +21,7 @@ mod events;
 mod impact;
 mod integrator;
 mod ledger;
+mod newton;
 mod projection;
 
 use self::core::{Core, TrialCopy};
@@ -302,6 +303,12 @@ impl Simulator {
                     continue;
                 }
                 other => other?,
+            }
+            let st = &self.settings;
+            if self.core.blend_entry && h > dt * st.min_substep_fraction {
+                self.core.stats.fallbacks.blend_entry_halvings += 1;
+                h_try = 0.5 * h;
+                continue;
             }
             events += self.finish_substep(h)?;
             h_try = (2.0 * h_try).min(dt);

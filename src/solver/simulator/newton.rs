@@ -1,0 +1,392 @@
+//! Newton steps of the Newmark iteration where the fixed-point iteration does
+//! not contract: the stiff term it treats explicitly is the pulley friction's
+//! blend (sigma = clamp(s / s_slip, -1, 1): below the slip speed a pulley's
+//! friction acts as a viscous damper of mu theta T / s_slip).
+//!
+//! The iteration solves A = G(A), G(A) the constrained accelerations at the
+//! Newmark (x, v) of A. Newton on R(A) = G(A) - A with the derivative
+//! G' = P M_eff^-1 (dQ/dV) h/2 of the friction's blend alone (P the constrained
+//! solve, dQ/dV from `cable::add_friction_derivative`, nonzero only at pulleys
+//! sliding slower than their slip speed): (I - G') d = R(A), solved by GMRES
+//! in the kinetic inner product <x, y> = sum m_i x_i y_i, each GMRES iteration
+//! one constrained solve with the iterate's factorization. G' maps into the
+//! structure's free motions, so GMRES needs about as many iterations as there
+//! are mechanisms (one on the double ring) plus one.
+//!
+//! The friction law is piecewise smooth (each pulley's blend saturates at its
+//! slip speed): from a saturated iterate the Newton step can overshoot to the
+//! other side, so the step is halved until the kinetic norm of the residual
+//! decreases (a line search on a residual that is exact: only the step's
+//! direction uses the approximate derivative). The converged A is that of
+//! the plain iteration: the same equations, the same friction law.
+
+use super::core::Core;
+use crate::solver::cable;
+use crate::solver::model::Model;
+use crate::solver::settings::SolverSettings;
+use crate::solver::SolverError;
+
+/// Buffers of the Newton steps (made once; rows-sized ones follow the pattern).
+pub(super) struct NewtonWork {
+    kmax: usize,
+    n: usize,
+    /// The accepted iterate, its residual G(A) - A and kinetic norm, the
+    /// direction, and the line search's step fraction.
+    a_acc: Vec<f64>,
+    r_acc: Vec<f64>,
+    norm_acc: f64,
+    dir: Vec<f64>,
+    alpha: f64,
+    /// Line search: trials since the last accepted iterate, the bracket's
+    /// ends (alpha, <R, d>) on the accepted side and across the sign change,
+    /// and which end the last trial replaced (Illinois).
+    trials: usize,
+    lo: (f64, f64),
+    hi: Option<(f64, f64)>,
+    kept_side: i8,
+    r_dir0: f64,
+    /// The largest |G' v| over the GMRES basis vectors (unit kinetic norm)
+    /// of this Newmark step's Newton steps: the friction blend's stiffness
+    /// h/2 |P M^-1 dQ/dV| seen by the iteration (1 and above: it alone
+    /// makes the plain iteration diverge).
+    pub gain: f64,
+    // GMRES: basis (kmax + 1 vectors), Hessenberg matrix (column-major,
+    // (kmax + 1) x kmax), Givens rotations, rhs and solution.
+    basis: Vec<f64>,
+    hess: Vec<f64>,
+    cs: Vec<f64>,
+    sn: Vec<f64>,
+    g: Vec<f64>,
+    y: Vec<f64>,
+    // operator work: dv, dQ, the constrained response, multipliers, zero c
+    dv: Vec<f64>,
+    dq: Vec<f64>,
+    da: Vec<f64>,
+    lambda: Vec<f64>,
+    zero_c: Vec<f64>,
+}
+
+impl NewtonWork {
+    pub fn new(kmax: usize, n: usize, rows: usize) -> NewtonWork {
+        NewtonWork {
+            kmax,
+            n,
+            a_acc: vec![0.0; n],
+            r_acc: vec![0.0; n],
+            norm_acc: f64::INFINITY,
+            dir: vec![0.0; n],
+            alpha: 1.0,
+            trials: 0,
+            lo: (0.0, 0.0),
+            hi: None,
+            kept_side: 0,
+            r_dir0: 0.0,
+            gain: 0.0,
+            basis: vec![0.0; (kmax + 1) * n],
+            hess: vec![0.0; (kmax + 1) * kmax],
+            cs: vec![0.0; kmax],
+            sn: vec![0.0; kmax],
+            g: vec![0.0; kmax + 1],
+            y: vec![0.0; kmax],
+            dv: vec![0.0; n],
+            dq: vec![0.0; n],
+            da: vec![0.0; n],
+            lambda: vec![0.0; rows],
+            zero_c: vec![0.0; rows],
+        }
+    }
+
+    /// Rows-sized buffers for a new Jacobian pattern.
+    pub fn set_rows(&mut self, rows: usize) {
+        self.lambda.resize(rows, 0.0);
+        self.zero_c.resize(rows, 0.0);
+    }
+}
+
+fn m_dot(mass: &[f64], a: &[f64], b: &[f64]) -> f64 {
+    mass.iter()
+        .zip(a.iter().zip(b))
+        .map(|(m, (x, y))| m * x * y)
+        .sum()
+}
+
+impl Core {
+    /// Starts the Newton steps from the current iterate (`a_guess`, whose map
+    /// value is in `a`, cable readings and factorization at its (x, v)):
+    /// accepts it and puts the first Newton iterate in `a_guess`.
+    pub(super) fn newton_start(
+        &mut self,
+        model: &Model,
+        h: f64,
+        st: &SolverSettings,
+    ) -> Result<(), SolverError> {
+        self.newton.norm_acc = f64::INFINITY;
+        self.newton.gain = 0.0;
+        self.newton_advance(model, h, st).map(|_| ())
+    }
+
+    /// After the map value `a` of the Newton iterate `a_guess` is computed:
+    /// accepts it (its residual's kinetic norm decreased enough) and puts the
+    /// next Newton iterate in `a_guess`, or moves the step length along the
+    /// direction (line search). Returns false where the line search gives up
+    /// (the iteration has failed).
+    ///
+    /// Line search: along d the residual's component r(alpha) = <R(A + alpha
+    /// d), d> changes sign where the step crosses the blend (a step from a
+    /// saturated iterate is the plain one and overshoots to the other side);
+    /// once a trial has bracketed that sign change, the next alpha is the
+    /// Illinois (regula falsi) point of the bracket, else alpha is halved.
+    pub(super) fn newton_advance(
+        &mut self,
+        model: &Model,
+        h: f64,
+        st: &SolverSettings,
+    ) -> Result<bool, SolverError> {
+        let n = self.a.len();
+        let (mut norm2, mut r_dir) = (0.0, 0.0);
+        for i in 0..n {
+            let r = self.a[i] - self.a_guess[i];
+            norm2 += model.mass[i] * r * r;
+            r_dir += model.mass[i] * r * self.newton.dir[i];
+        }
+        let norm = norm2.sqrt();
+        let nw = &mut self.newton;
+        // (once a trial has bracketed the sign change of <R, d>, a decrease
+        // is accepted only near it: a trial still on the saturated side would
+        // start the next Newton step from there and overshoot again)
+        let near = nw.hi.is_none() || r_dir.abs() <= st.newmark_newton_curvature * nw.r_dir0.abs();
+        if norm.is_finite()
+            && norm <= (1.0 - st.newmark_newton_decrease * nw.alpha) * nw.norm_acc
+            && near
+        {
+            nw.a_acc.copy_from_slice(&self.a_guess);
+            for i in 0..n {
+                nw.r_acc[i] = self.a[i] - self.a_guess[i];
+            }
+            nw.norm_acc = norm;
+            self.newton_direction(model, h, st)?;
+            self.stats.newton_steps += 1;
+            let nw = &mut self.newton;
+            nw.alpha = 1.0;
+            nw.trials = 0;
+            nw.lo = (0.0, m_dot(&model.mass, &nw.r_acc, &nw.dir));
+            nw.r_dir0 = nw.lo.1;
+            nw.hi = None;
+            nw.kept_side = 0;
+        } else {
+            self.stats.newton_backtracks += 1;
+            nw.trials += 1;
+            if nw.trials > st.newmark_newton_line_search_max || !r_dir.is_finite() {
+                return Ok(false);
+            }
+            let (a_lo, r_lo) = nw.lo;
+            if r_dir * r_lo > 0.0 {
+                nw.lo = (nw.alpha, r_dir);
+                if nw.kept_side == 1 {
+                    // (Illinois: the far end kept twice, its value halved)
+                    if let Some(hi) = nw.hi.as_mut() {
+                        hi.1 *= 0.5;
+                    }
+                }
+                nw.kept_side = 1;
+            } else {
+                nw.hi = Some((nw.alpha, r_dir));
+                if nw.kept_side == -1 {
+                    nw.lo.1 *= 0.5;
+                }
+                nw.kept_side = -1;
+            }
+            nw.alpha = match nw.hi {
+                Some((a_hi, r_hi)) if nw.lo.1 != r_hi => {
+                    let (a_lo, r_lo) = nw.lo;
+                    a_lo - r_lo * (a_hi - a_lo) / (r_hi - r_lo)
+                }
+                _ => {
+                    // (no sign change yet: back toward the accepted iterate)
+                    nw.lo = (a_lo, r_lo);
+                    0.5 * nw.alpha
+                }
+            };
+            if !(nw.alpha >= st.newmark_newton_min_step) {
+                return Ok(false);
+            }
+        }
+        let nw = &self.newton;
+        for i in 0..n {
+            self.a_guess[i] = nw.a_acc[i] + nw.alpha * nw.dir[i];
+        }
+        Ok(true)
+    }
+
+    /// Whether the friction direction's blend is in play in this step: a
+    /// pulley (with friction) slides slower than its slip speed in the
+    /// trial's cable readings or at the step start, or the other way than at
+    /// the step start (the iterates of a step across the blend can alternate
+    /// between its two saturated sides).
+    pub(super) fn friction_blend_active(&self, model: &Model) -> bool {
+        let cables = model
+            .cables
+            .iter()
+            .zip(&self.cables)
+            .zip(&self.friction_sliding);
+        cables
+            .filter(|((c, _), _)| c.friction_mu > 0.0)
+            .any(|((c, e), start)| {
+                e.sliding_m_s.iter().zip(start).any(|(s, s0)| {
+                    s.abs() < c.slip_speed_m_s || s0.abs() < c.slip_speed_m_s || s * s0 < 0.0
+                })
+            })
+    }
+
+    /// Whether the step went through a fast part of the friction's transient:
+    /// a pulley (with friction) inside the blend at the step's start or end,
+    /// or on the other side at its end, changed its sliding by more than
+    /// `change_rel` times its slip speed. (Inside the blend the friction is a
+    /// damper whose time constant the step exceeds many times; a change of
+    /// the sliding there is that transient, stepped over.)
+    pub(super) fn friction_blend_entered(&self, model: &Model, change_rel: f64) -> bool {
+        let cables = model
+            .cables
+            .iter()
+            .zip(&self.cables)
+            .zip(&self.friction_sliding);
+        cables
+            .filter(|((c, _), _)| c.friction_mu > 0.0)
+            .any(|((c, e), start)| {
+                let slip = c.slip_speed_m_s;
+                e.sliding_m_s.iter().zip(start).any(|(s, s0)| {
+                    let in_play = s.abs() < slip || s0.abs() < slip || s * s0 < 0.0;
+                    in_play && (s - s0).abs() > change_rel * slip
+                })
+            })
+    }
+
+    /// The accepted Newton iterate back into `a_guess` (after a failed line search).
+    pub(super) fn newton_best(&mut self) {
+        self.a_guess.copy_from_slice(&self.newton.a_acc);
+    }
+
+    /// w = (I - G') x for basis vector `j` into basis vector `j + 1`
+    /// (unnormalized); G' x = P M_eff^-1 dQ/dV (h/2 x).
+    fn newton_apply(&mut self, model: &Model, h: f64, j: usize) -> Result<(), SolverError> {
+        let nw = &mut self.newton;
+        let n = nw.n;
+        let (done, rest) = nw.basis.split_at_mut((j + 1) * n);
+        let x = &done[j * n..];
+        let w = &mut rest[..n];
+        for i in 0..n {
+            nw.dv[i] = 0.5 * h * x[i];
+        }
+        nw.dq.fill(0.0);
+        for (ci, c) in model.cables.iter().enumerate() {
+            cable::add_friction_derivative(c, &self.cables[ci], &self.x, &nw.dv, &mut nw.dq);
+        }
+        w.copy_from_slice(x);
+        if nw.dq.iter().all(|v| *v == 0.0) {
+            return Ok(());
+        }
+        let report = self.solver.accelerations(
+            &self.jac,
+            &self.inv_mass_eff,
+            &nw.dq,
+            &nw.zero_c,
+            &mut nw.da,
+            &mut nw.lambda,
+        )?;
+        let mut gain2 = 0.0;
+        for i in 0..n {
+            w[i] -= nw.da[i];
+            gain2 += model.mass[i] * nw.da[i] * nw.da[i];
+        }
+        // (|G' x| for the unit x: at least 1 where the blend is what keeps
+        // the plain iteration from contracting)
+        nw.gain = nw.gain.max(gain2.sqrt());
+        self.book_solve(report);
+        self.stats.newton_krylov_iterations += 1;
+        Ok(())
+    }
+
+    /// The Newton direction: (I - G') dir = r_acc by GMRES (kinetic inner
+    /// product, modified Gram-Schmidt, Givens rotations), from dir = 0.
+    fn newton_direction(
+        &mut self,
+        model: &Model,
+        h: f64,
+        st: &SolverSettings,
+    ) -> Result<(), SolverError> {
+        debug_assert!(self.implicit_h == Some(h));
+        let mass = &model.mass;
+        let (n, kmax) = (self.newton.n, self.newton.kmax);
+        let beta = m_dot(mass, &self.newton.r_acc, &self.newton.r_acc).sqrt();
+        self.newton.dir.fill(0.0);
+        if beta == 0.0 {
+            return Ok(());
+        }
+        {
+            let nw = &mut self.newton;
+            for i in 0..n {
+                nw.basis[i] = nw.r_acc[i] / beta;
+            }
+            nw.g.fill(0.0);
+            nw.g[0] = beta;
+        }
+        let ld = kmax + 1; // leading dimension of hess
+        let mut k = 0; // columns made
+        while k < kmax {
+            self.newton_apply(model, h, k)?;
+            let nw = &mut self.newton;
+            let (done, rest) = nw.basis.split_at_mut((k + 1) * n);
+            let w = &mut rest[..n];
+            for i in 0..=k {
+                let vi = &done[i * n..(i + 1) * n];
+                let hik = m_dot(mass, vi, w);
+                nw.hess[k * ld + i] = hik;
+                for (wv, v) in w.iter_mut().zip(vi) {
+                    *wv -= hik * v;
+                }
+            }
+            let hk1 = m_dot(mass, w, w).sqrt();
+            nw.hess[k * ld + k + 1] = hk1;
+            if hk1 > 0.0 {
+                for wv in w.iter_mut() {
+                    *wv /= hk1;
+                }
+            }
+            // previous rotations on the new column, then its own
+            for i in 0..k {
+                let (a, b) = (nw.hess[k * ld + i], nw.hess[k * ld + i + 1]);
+                nw.hess[k * ld + i] = nw.cs[i] * a + nw.sn[i] * b;
+                nw.hess[k * ld + i + 1] = -nw.sn[i] * a + nw.cs[i] * b;
+            }
+            let (a, b) = (nw.hess[k * ld + k], nw.hess[k * ld + k + 1]);
+            let r = a.hypot(b);
+            let (c, s) = if r == 0.0 { (1.0, 0.0) } else { (a / r, b / r) };
+            nw.cs[k] = c;
+            nw.sn[k] = s;
+            nw.hess[k * ld + k] = r;
+            nw.hess[k * ld + k + 1] = 0.0;
+            nw.g[k + 1] = -s * nw.g[k];
+            nw.g[k] *= c;
+            k += 1;
+            if nw.g[k].abs() <= st.newmark_newton_krylov_tol_rel * beta || hk1 == 0.0 {
+                break;
+            }
+        }
+        let nw = &mut self.newton;
+        for i in (0..k).rev() {
+            let mut v = nw.g[i];
+            for j in i + 1..k {
+                v -= nw.hess[j * ld + i] * nw.y[j];
+            }
+            let d = nw.hess[i * ld + i];
+            nw.y[i] = if d == 0.0 { 0.0 } else { v / d };
+        }
+        for i in 0..k {
+            let yi = nw.y[i];
+            for (d, v) in nw.dir.iter_mut().zip(&nw.basis[i * n..(i + 1) * n]) {
+                *d += yi * v;
+            }
+        }
+        Ok(())
+    }
+}
