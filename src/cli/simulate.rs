@@ -504,11 +504,13 @@ fn print_summary(s: &SimulateJson) {
         Some(t) if s.deployed => say!("deployed         yes, at t = {t:.6} s"),
         _ => say!("deployed         no (stopped at t = {:.3} s)", s.time_s),
     }
-    say!(
-        "stop             {}: {}",
-        s.stop_reason.label(),
-        s.stop_message
-    );
+    // (a message that starts with its reason is not prefixed with it again)
+    let label = s.stop_reason.label();
+    if s.stop_message.starts_with(label) {
+        say!("stop             {}", s.stop_message);
+    } else {
+        say!("stop             {label}: {}", s.stop_message);
+    }
     say!(
         "steps            {} at dt = {} s, wall time {:.3} s",
         s.steps,
