@@ -1,6 +1,7 @@
 //! The stepping loop reuses its buffers: once a model has run a few steps (the
 //! symbolic analysis, the redundant-row probe and the work buffers are set up),
-//! a plain step (no latch) allocates nothing on the heap. Counted with a global
+//! a plain step (no latch) allocates nothing on the heap, nor does a sub-step
+//! through a compliant latch's transient. Counted with a global
 //! allocator wrapper, single-threaded (this file holds one test).
 
 use std::alloc::{GlobalAlloc, Layout, System};
@@ -30,7 +31,7 @@ unsafe impl GlobalAlloc for Counting {
 static GLOBAL: Counting = Counting;
 
 #[test]
-fn plain_steps_do_not_allocate() {
+fn plain_and_transient_steps_do_not_allocate() {
     for name in ["double_ring", "pantograph_mast", "sail_array"] {
         let path = Path::new(env!("CARGO_MANIFEST_DIR")).join(format!("models/{name}.toml"));
         let model = load(&path).expect("bundled model loads").model;
@@ -51,4 +52,30 @@ fn plain_steps_do_not_allocate() {
             "{name}: 20 plain steps made {allocations} heap allocations"
         );
     }
+    // The sub-steps that resolve the mast's compliant latches while they
+    // engage (tracking the force, its peak and the settle window) reuse
+    // their buffers too; engaging and turning rigid are events and may
+    // allocate.
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("models/pantograph_mast.toml");
+    let mut sim = Simulator::new(load(&path).unwrap().model, Options::default()).unwrap();
+    while sim.state().transients.is_empty() {
+        sim.step(0.05).unwrap();
+    }
+    sim.step(1e-4).unwrap();
+    let (substeps, before) = (
+        sim.solver_stats().substeps,
+        ALLOCATIONS.load(Ordering::Relaxed),
+    );
+    let mut events = 0;
+    for _ in 0..20 {
+        events += sim.step(1e-4).unwrap();
+    }
+    let allocations = ALLOCATIONS.load(Ordering::Relaxed) - before;
+    assert_eq!(events, 0, "these sub-steps should not latch");
+    assert_eq!(sim.state().transients.len(), 4, "still engaging");
+    assert!(sim.solver_stats().substeps - substeps >= 20);
+    assert_eq!(
+        allocations, 0,
+        "20 steps through the latch transient made {allocations} heap allocations"
+    );
 }
