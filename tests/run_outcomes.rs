@@ -501,16 +501,11 @@ fn mutated_bundled_models_never_panic_or_hang() {
     );
 }
 
-/// The double ring with its inner cable rerouted through the far side
-/// (I5_t -> I14_b): its drive nearly balances, the ring creeps, and the pulleys
-/// slide slower than their slip speed, where the Newmark iteration takes the
-/// friction direction from the step start. The step's end accelerations and
-/// the ledger must use the same directions: with the current ones instead the
-/// run booked an energy balance error of 6.5e-2 by t = 0.1 s (now 1e-6 level;
-/// checked), which the energy check turns into exit 1.
-#[test]
-fn the_rerouted_ring_keeps_its_energy_balance() {
-    let d = temp_dir("rerouted");
+/// Simulates the bundled double ring with its inner cable rerouted through
+/// the far side (I5_t -> I14_b) `--until` the given time, in a temporary
+/// directory named after `tag`; the run must exit 0. Returns its JSON summary.
+fn run_rerouted_ring(tag: &str, until: &str) -> serde_json::Value {
+    let d = temp_dir(tag);
     let ring = std::fs::read_to_string(model("double_ring.toml")).unwrap();
     let from = "\"I4_b\", \"I5_t\", \"I6_b\"";
     assert_eq!(ring.matches(from).count(), 1, "the inner cable path");
@@ -521,12 +516,25 @@ fn the_rerouted_ring_keeps_its_energy_balance() {
         "simulate",
         &m.display().to_string(),
         "--until",
-        "0.1",
+        until,
         "--json",
         &j.display().to_string(),
     ]);
     let s = read_json(&j);
     assert_eq!(o.status.code(), Some(0), "{}\n{s:#}", text(&o.stderr));
+    s
+}
+
+/// The double ring with its inner cable rerouted through the far side
+/// (I5_t -> I14_b): its drive nearly balances, the ring creeps, and the pulleys
+/// slide slower than their slip speed, where the Newmark iteration takes the
+/// friction direction from the step start. The step's end accelerations and
+/// the ledger must use the same directions: with the current ones instead the
+/// run booked an energy balance error of 6.5e-2 by t = 0.1 s (now 1e-6 level;
+/// checked), which the energy check turns into exit 1.
+#[test]
+fn the_rerouted_ring_keeps_its_energy_balance() {
+    let s = run_rerouted_ring("rerouted", "0.1");
     assert_eq!(s["stop_reason"], "until", "{s:#}");
     let e = s["energy_balance_rel_error"].as_f64().unwrap();
     assert!(e < 1e-4, "balance error {e:e}");
@@ -547,22 +555,7 @@ fn the_rerouted_ring_keeps_its_energy_balance() {
 /// Counted from `solver_stats`, not timed.
 #[test]
 fn the_rerouted_ring_steps_with_bounded_factorizations() {
-    let d = temp_dir("rerouted_cost");
-    let ring = std::fs::read_to_string(model("double_ring.toml")).unwrap();
-    let from = "\"I4_b\", \"I5_t\", \"I6_b\"";
-    let m = d.join("rerouted.toml");
-    std::fs::write(&m, ring.replace(from, "\"I4_b\", \"I14_b\", \"I6_b\"")).unwrap();
-    let j = d.join("s.json");
-    let o = run(&[
-        "simulate",
-        &m.display().to_string(),
-        "--until",
-        "1",
-        "--json",
-        &j.display().to_string(),
-    ]);
-    let s = read_json(&j);
-    assert_eq!(o.status.code(), Some(0), "{}\n{s:#}", text(&o.stderr));
+    let s = run_rerouted_ring("rerouted_cost", "1");
     let st = &s["solver_stats"];
     let count = |k: &str| st[k].as_u64().unwrap();
     let steps = count("steps");
