@@ -224,18 +224,30 @@ impl Core {
     /// the step start (the iterates of a step across the blend can alternate
     /// between its two saturated sides).
     pub(super) fn friction_blend_active(&self, model: &Model) -> bool {
-        let cables = model
+        self.pulleys_in_blend(model).next().is_some()
+    }
+
+    /// The pulleys (with friction) whose blend is in play in this step, as
+    /// (sliding now, sliding at the step start, slip speed): inside the blend
+    /// at either end, or sliding the other way than at the start.
+    fn pulleys_in_blend<'a>(
+        &'a self,
+        model: &'a Model,
+    ) -> impl Iterator<Item = (f64, f64, f64)> + 'a {
+        model
             .cables
             .iter()
             .zip(&self.cables)
-            .zip(&self.friction_sliding);
-        cables
+            .zip(&self.friction_sliding)
             .filter(|((c, _), _)| c.friction_mu > 0.0)
-            .any(|((c, e), start)| {
-                e.sliding_m_s.iter().zip(start).any(|(s, s0)| {
-                    s.abs() < c.slip_speed_m_s || s0.abs() < c.slip_speed_m_s || s * s0 < 0.0
-                })
+            .flat_map(|((c, e), start)| {
+                let slip = c.slip_speed_m_s;
+                e.sliding_m_s
+                    .iter()
+                    .zip(start)
+                    .map(move |(&s, &s0)| (s, s0, slip))
             })
+            .filter(|&(s, s0, slip)| s.abs() < slip || s0.abs() < slip || s * s0 < 0.0)
     }
 
     /// Whether the step went through a fast part of the friction's transient:
@@ -245,20 +257,8 @@ impl Core {
     /// damper whose time constant the step exceeds many times; a change of
     /// the sliding there is that transient, stepped over.)
     pub(super) fn friction_blend_entered(&self, model: &Model, change_rel: f64) -> bool {
-        let cables = model
-            .cables
-            .iter()
-            .zip(&self.cables)
-            .zip(&self.friction_sliding);
-        cables
-            .filter(|((c, _), _)| c.friction_mu > 0.0)
-            .any(|((c, e), start)| {
-                let slip = c.slip_speed_m_s;
-                e.sliding_m_s.iter().zip(start).any(|(s, s0)| {
-                    let in_play = s.abs() < slip || s0.abs() < slip || s * s0 < 0.0;
-                    in_play && (s - s0).abs() > change_rel * slip
-                })
-            })
+        self.pulleys_in_blend(model)
+            .any(|(s, s0, slip)| (s - s0).abs() > change_rel * slip)
     }
 
     /// The accepted Newton iterate back into `a_guess` (after a failed line search).
