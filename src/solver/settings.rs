@@ -139,6 +139,12 @@ pub struct SolverSettings {
     /// A compliant latch turns rigid after at most this many of its periods,
     /// settled or not (the rigid latch takes the oscillation left).
     pub latch_max_periods: f64,
+    /// A compliant latch the structure can hardly move along (its inverse
+    /// effective mass w at most this fraction of its free two-joint value
+    /// 1/m_a + 1/m_b, e.g. a sleeve at its shortest, such as the ring's
+    /// radial sleeves at the flat state, where w is roundoff: ~1e-15) has
+    /// no transient: it latches rigid, after the others' transients.
+    pub latch_immobile_rel: f64,
 
     // --- mobility (the rank decision itself is `crate::solver::rank`) ---
     /// Largest model (coordinates) whose mobility is counted by a dense SVD
@@ -185,6 +191,7 @@ impl Default for SolverSettings {
             latch_settle_steps_per_period: 40.0,
             latch_settle_rel: 1e-3,
             latch_max_periods: 50.0,
+            latch_immobile_rel: 1e-9,
             rank_check_max_coords: 1500,
         }
     }
@@ -239,6 +246,7 @@ impl SolverSettings {
             ),
             ("latch_settle_rel", self.latch_settle_rel),
             ("latch_max_periods", self.latch_max_periods),
+            ("latch_immobile_rel", self.latch_immobile_rel),
         ];
         for (key, v) in positive {
             if !(v.is_finite() && v > 0.0) {

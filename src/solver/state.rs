@@ -43,17 +43,20 @@ pub struct LatchTransient {
     /// +1 when the sleeve engaged extending (the latch pulls: T > 0), -1
     /// when shortening (it pushes).
     pub sign: f64,
-    /// The latch's own period 2 pi / sqrt(k w), w = `inv_mass_eff_per_kg`
-    /// (s): the window over which it is checked for settling.
+    /// The window over which it is checked for settling (s): its own
+    /// period 2 pi / sqrt(k w), w = `inv_mass_eff_per_kg`; on a structure
+    /// with one mechanism (rigid rows), the period of the one mode its
+    /// engaged latches make together, 2 pi / sqrt(sum_i k_i w_i) (exact
+    /// there: with one mechanism n, w_i = (A_i n)^2 / n^T M n).
     pub period_s: f64,
     pub engaged_at_s: f64,
     /// Latch tension and its rate at the state (N, N/s).
     pub force_n: f64,
     pub force_rate_n_s: f64,
-    /// Extremes of sign * T over the current window of one period, and its end.
+    /// Extremes of sign * T over the current window of one period, and its start.
     pub window_max_n: f64,
     pub window_min_n: f64,
-    pub window_end_s: f64,
+    pub window_start_s: f64,
     /// Integral of T dt and the damper's dissipation since engagement (N s, J).
     pub impulse_ns: f64,
     pub dissipated_j: f64,

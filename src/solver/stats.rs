@@ -91,9 +91,12 @@ pub struct Fallbacks {
     /// A compliant latch turned rigid at `latch_max_periods` without having
     /// settled (the rigid latch took the oscillation left).
     pub latch_unsettled: u64,
-    /// A compliant latch latched rigid at once: nothing of the structure
-    /// could move along it (inverse effective mass 0, e.g. a sleeve redundant
-    /// with members already latched), so its spring could never deflect.
+    /// A compliant latch latched rigid: nothing of the structure could move
+    /// along it (inverse effective mass below `latch_immobile_rel` of its
+    /// free value, e.g. a sleeve redundant with members already latched, or
+    /// at its shortest as the ring's radial members at the flat state), so
+    /// its spring could never deflect. At once, or after the transients of
+    /// latches engaging with it.
     pub latch_without_compliance: u64,
 }
 

@@ -61,6 +61,11 @@ pub(super) struct Core {
     pub least_work: Option<LeastWork>,
     /// Engaged compliant latches: (element, k in N/m, c in N s/m).
     pub springs: Vec<(usize, f64, f64)>,
+    /// Compliant latches reached while others engage, along which the
+    /// structure cannot move (inverse effective mass 0: e.g. the ring's
+    /// radial sleeves, shortest at the flat state): (element, instant it
+    /// reached its lock, s). They latch rigid once the transients are over.
+    pub waiting: Vec<(usize, f64)>,
     /// What the stepping loop did (the aux solver's work is not counted).
     pub stats: SolverStats,
 }
@@ -103,6 +108,7 @@ impl Core {
             prev_h2: None,
             least_work: None,
             springs: Vec::new(),
+            waiting: Vec::new(),
             stats: SolverStats::default(),
         }
     }

@@ -102,7 +102,7 @@ impl Simulator {
         let iterations = st.dip_search_iterations;
         let mut best: Option<(f64, usize, f64)> = None;
         for &e in &model.locks {
-            if s.locked[e] || s.transients.iter().any(|t| t.element == e) {
+            if s.locked[e] || super::impact::engaging(s, c, e) {
                 continue;
             }
             let el = model.elements[e].as_ref();
@@ -285,7 +285,7 @@ impl Simulator {
         let s = &self.state;
         crossed_unlatched(
             &self.model,
-            &|e| s.locked[e] || s.transients.iter().any(|t| t.element == e),
+            &|e| s.locked[e] || self.engaged(e),
             &self.state.x,
             &self.core.x,
             self.settings.lock_tol_m,

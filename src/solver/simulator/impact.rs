@@ -23,7 +23,7 @@ use super::Simulator;
 use crate::solver::linsolve::SolveMode;
 use crate::solver::model::Model;
 use crate::solver::settings::SolverSettings;
-use crate::solver::state::{LatchTransient, LockEvent};
+use crate::solver::state::{LatchTransient, LockEvent, State};
 use crate::solver::SolverError;
 
 impl Core {
@@ -72,46 +72,107 @@ impl Simulator {
         let (springy, mut rigid): (Vec<usize>, Vec<usize>) = newly
             .iter()
             .partition(|&&e| model.elements[e].latch_spring().is_some());
+        let mut immobile = Vec::new();
         for &e in &springy {
             if !self.engage(e)? {
-                rigid.push(e);
+                immobile.push(e);
             }
+        }
+        // A compliant latch the structure cannot move along waits for the
+        // others' transients (its row would be redundant to first order with
+        // theirs meanwhile); with none engaging it latches rigid now.
+        if self.state.transients.is_empty() {
+            self.core.stats.fallbacks.latch_without_compliance += immobile.len() as u64;
+            rigid.extend(immobile);
+        } else {
+            self.core.waiting.extend(immobile.iter().map(|&e| (e, t)));
         }
         if rigid.is_empty() {
             // the dampers' force jumps in: accelerations from there
             self.core.prev_h = None;
             self.restart_accelerations()?;
         } else {
-            let jumps = self.lock_rigidly(&rigid)?;
-            for (&e, (impulse_ns, energy_lost_j, rate)) in rigid.iter().zip(jumps) {
-                self.state.locks.push(LockEvent {
-                    element: e,
-                    name: self.model.elements[e].name().to_string(),
-                    time_s: t,
-                    impulse_ns: impulse_ns.abs(),
-                    energy_lost_j,
-                    closing_speed_m_s: rate,
-                    peak_force_n: None,
-                    time_of_peak_s: None,
-                    rigid_at_s: None,
-                });
-            }
+            self.latch_rigid(&rigid, &|_| t)?;
         }
         Ok(newly.len())
     }
 
-    /// Whether a sleeve's compliant latch is engaged (its transient lasts).
+    /// Latches `elements` rigid at the state and records their events, each
+    /// at the instant `reached_s` gives it (when it reached its lock).
+    fn latch_rigid(
+        &mut self,
+        elements: &[usize],
+        reached_s: &dyn Fn(usize) -> f64,
+    ) -> Result<(), SolverError> {
+        let jumps = self.lock_rigidly(elements)?;
+        for (&e, (impulse_ns, energy_lost_j, rate)) in elements.iter().zip(jumps) {
+            self.state.locks.push(LockEvent {
+                element: e,
+                name: self.model.elements[e].name().to_string(),
+                time_s: reached_s(e),
+                impulse_ns: impulse_ns.abs(),
+                energy_lost_j,
+                closing_speed_m_s: rate,
+                peak_force_n: None,
+                time_of_peak_s: None,
+                rigid_at_s: None,
+            });
+        }
+        self.stamp_deploy_time();
+        Ok(())
+    }
+
+    /// The waiting compliant latches once no transient is left: those still
+    /// at their lock latch rigid (at the instant they reached it), the others
+    /// are free again. Returns how many latched.
+    fn latch_waiting(&mut self) -> Result<usize, SolverError> {
+        if !self.state.transients.is_empty() || self.core.waiting.is_empty() {
+            return Ok(0);
+        }
+        let waiting = std::mem::take(&mut self.core.waiting);
+        let tol = self.settings.latch_tol_m();
+        let at_lock: Vec<usize> = waiting
+            .iter()
+            .map(|w| w.0)
+            .filter(|&e| gap(&self.model, e, &self.state.x).abs() <= tol)
+            .collect();
+        if at_lock.is_empty() {
+            return Ok(0);
+        }
+        self.core.stats.fallbacks.latch_without_compliance += at_lock.len() as u64;
+        let reached = |e: usize| waiting.iter().find(|w| w.0 == e).map_or(f64::NAN, |w| w.1);
+        self.latch_rigid(&at_lock, &reached)?;
+        Ok(at_lock.len())
+    }
+
+    /// Once deployed: the deploy time is the instant the last latch engaged
+    /// or reached its lock (compliant latches turn rigid later).
+    fn stamp_deploy_time(&mut self) {
+        let s = &mut self.state;
+        if s.deployed && s.deploy_time_s.is_none() {
+            s.deploy_time_s = Some(
+                s.locks
+                    .iter()
+                    .map(|l| l.time_s)
+                    .fold(f64::NEG_INFINITY, f64::max),
+            );
+        }
+    }
+
+    /// Whether a sleeve's compliant latch is engaged (its transient lasts)
+    /// or waits for the others' transients to end.
     pub(super) fn engaged(&self, e: usize) -> bool {
-        self.state.transients.iter().any(|t| t.element == e)
+        engaging(&self.state, &self.core, e)
     }
 
     /// A compliant latch engages at the state: its event (peak to come) and
     /// transient, with the structure's effective mass along the sleeve (at
     /// the factorization the accepted step left, every rigid constraint
     /// holding) for its period 2 pi / sqrt(k w). Returns false, engaging
-    /// nothing, where the period is not finite (w = 0: the structure cannot
-    /// move along the sleeve, its spring would never deflect nor settle); the
-    /// caller latches it rigid (a counted fallback).
+    /// nothing, where the structure cannot move along the sleeve (w below
+    /// `latch_immobile_rel` of its free value: its spring would never
+    /// deflect nor settle); the caller latches it rigid (a counted
+    /// fallback), after the transients of the others engaging with it.
     fn engage(&mut self, e: usize) -> Result<bool, SolverError> {
         let model = &self.model;
         let el = &model.elements[e];
@@ -122,8 +183,9 @@ impl Simulator {
         self.core.x.copy_from_slice(&self.state.x);
         let w = self.core.inverse_effective_mass(model, e)?;
         let period_s = 2.0 * std::f64::consts::PI / (k * w).sqrt();
-        if !(period_s.is_finite() && period_s > 0.0) {
-            self.core.stats.fallbacks.latch_without_compliance += 1;
+        let [ja, jb] = [el.joints()[0], el.joints()[1]];
+        let w_free = model.inv_mass[3 * ja] + model.inv_mass[3 * jb];
+        if w <= self.settings.latch_immobile_rel * w_free || !period_s.is_finite() {
             return Ok(false);
         }
         let t = self.state.t_s;
@@ -159,11 +221,17 @@ impl Simulator {
             force_rate_n_s,
             window_max_n: sign * force_n,
             window_min_n: sign * force_n,
-            window_end_s: t + period_s,
+            window_start_s: t,
             impulse_ns: 0.0,
             dissipated_j: 0.0,
         });
         self.core.springs.push((e, k, c));
+        if self.state.mechanisms == 1 {
+            let one_mode_s = self.spring_mode_period_s();
+            for tr in &mut self.state.transients {
+                tr.period_s = one_mode_s;
+            }
+        }
         self.core.stats.latches += 1;
         self.core.stats.compliant_latches += 1;
         Ok(true)
@@ -179,10 +247,6 @@ impl Simulator {
         if tr.is_empty() {
             return f64::INFINITY;
         }
-        let omega2: f64 = tr
-            .iter()
-            .map(|t| t.stiffness_n_per_m * t.inv_mass_eff_per_kg)
-            .sum();
         let peaked = tr
             .iter()
             .all(|t| self.state.locks[t.event].peak_force_n.is_some());
@@ -191,7 +255,20 @@ impl Simulator {
         } else {
             self.settings.latch_steps_per_period
         };
-        2.0 * std::f64::consts::PI / omega2.sqrt() / per_period
+        self.spring_mode_period_s() / per_period
+    }
+
+    /// 2 pi / sqrt(sum_i k_i w_i) over the engaged latches (s): the period
+    /// of the fastest mode they make together, bounded by Rayleigh, and of
+    /// their one mode on a structure with one mechanism.
+    fn spring_mode_period_s(&self) -> f64 {
+        let omega2: f64 = self
+            .state
+            .transients
+            .iter()
+            .map(|t| t.stiffness_n_per_m * t.inv_mass_eff_per_kg)
+            .sum();
+        2.0 * std::f64::consts::PI / omega2.sqrt()
     }
 
     /// Turns rigid the compliant latches whose transient is over: the force
@@ -223,7 +300,7 @@ impl Simulator {
             if window_over(tr, t) {
                 let f = tr.sign * tr.force_n;
                 (tr.window_max_n, tr.window_min_n) = (f, f);
-                tr.window_end_s += tr.period_s;
+                tr.window_start_s = t;
             }
         }
         if due.is_empty() {
@@ -259,7 +336,8 @@ impl Simulator {
             ev.energy_lost_j = lost_j + lost;
             ev.rigid_at_s = Some(t);
         }
-        Ok(due.len())
+        self.stamp_deploy_time();
+        Ok(due.len() + self.latch_waiting()?)
     }
 
     /// Makes `elements` rigid members (locked) at the current state: the
@@ -303,7 +381,6 @@ impl Simulator {
         }
         core.least_work_split(model, self.opts.solver)?;
         let ke_before = self.state.kinetic_energy_j(model);
-        let t = self.state.t_s;
         let jumps = elements
             .iter()
             .map(|&e| {
@@ -348,30 +425,21 @@ impl Simulator {
                     || crate::solver::rank::of_jacobian(&self.core.jac) == self.model.n_coords()));
         if deployed {
             self.state.deployed = true;
-            // the instant the last latch engaged: now, or for compliant
-            // latches turning rigid after their transient, when they engaged
-            let settling = elements
-                .iter()
-                .all(|&e| self.state.locks.iter().any(|l| l.element == e));
-            let engaged_s = if settling {
-                self.state
-                    .locks
-                    .iter()
-                    .map(|l| l.time_s)
-                    .fold(f64::NEG_INFINITY, f64::max)
-            } else {
-                t
-            };
-            self.state.deploy_time_s.get_or_insert(engaged_s);
         }
         Ok(jumps)
     }
 }
 
+/// Whether a sleeve's compliant latch is engaged (its transient lasts) or
+/// waits for the others' to end.
+pub(super) fn engaging(s: &State, core: &Core, e: usize) -> bool {
+    s.transients.iter().any(|t| t.element == e) || core.waiting.iter().any(|w| w.0 == e)
+}
+
 /// Whether a transient's current window of one period has ended at `t` (to
 /// roundoff of the period: sub-steps land on the window's end).
 fn window_over(tr: &LatchTransient, t: f64) -> bool {
-    t >= tr.window_end_s - 1e-12 * tr.period_s
+    t >= tr.window_start_s + tr.period_s * (1.0 - 1e-12)
 }
 
 /// A sleeve's lock gap g = l - L_lock (m), extension rate ldot (m/s) and

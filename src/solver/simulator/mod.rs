@@ -103,6 +103,7 @@ impl Simulator {
         core.prev_h = None;
         // (a reset in a compliant latch's transient: its spring goes with it)
         core.springs.clear();
+        core.waiting.clear();
         core.set_pattern(model, &state.locked);
         core.x.copy_from_slice(&model.x0);
         if let Some((e, row, residual_m)) = model.initial_violation(st.initial_tol_m) {
