@@ -52,7 +52,16 @@ fn bundled_model_is_what_generate_writes() {
         Path::new(env!("CARGO_MANIFEST_DIR")).join("models/double_ring.toml"),
     )
     .unwrap();
-    assert_eq!(text, ring(&RingParams::synchronized()).unwrap().to_toml());
+    // the bundled ring states its compliant latches (README, Bundled models:
+    // `generate ring --latch-stiffness 2e5 --latch-damping 300`)
+    let bundled = RingParams {
+        latch: Some(truss_deploy::model::generate::LatchParams {
+            stiffness_n_per_m: 2e5,
+            damping_n_s_per_m: 300.0,
+        }),
+        ..RingParams::synchronized()
+    };
+    assert_eq!(text, ring(&bundled).unwrap().to_toml());
 }
 
 #[test]

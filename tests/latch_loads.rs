@@ -481,3 +481,79 @@ fn parallel_compliant_latches_share_by_stiffness() {
         assert!((got - want).abs() <= 1e-4 * want, "{name}: {got} vs {want}");
     }
 }
+
+/// The bundled ring: one mechanism, its 54 diagonals engaging compliant at
+/// one instant, its 36 radial members reaching their lock at their shortest
+/// (the flat state), where nothing moves along them.
+/// - Every sleeve latches; the radial members latch rigid once the
+///   transients are over (no peak, no impulse), each a counted fallback.
+/// - With one mechanism n every latch's length moves as l_i = (A_i n) q, so
+///   its force is T_i(t) = (A_i n) (k q + c q') and its closing speed
+///   ldot_i = (A_i n) q'(0): with the same k and c on every latch, the peak
+///   over the closing speed is one number for all of them, at least c (the
+///   damper's force at contact, c ldot_i).
+#[test]
+fn the_rings_compliant_latches_peak_in_proportion_to_their_closing_speeds() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/double_ring.toml");
+    let text = std::fs::read_to_string(&path).unwrap();
+    let model = parse(&text, "double_ring.toml").unwrap().model;
+    let mut sim = Simulator::new(model, Options::default()).unwrap();
+    run_until_settled(&mut sim, 0.05, 800);
+    let s = sim.state();
+    assert_eq!(s.locks.len(), 90, "every sleeve latched");
+    let (k, c) = (2e5, 300.0);
+    let mut ratios = Vec::new();
+    let mut radial = 0;
+    for ev in &s.locks {
+        let el = &sim.model().elements[ev.element];
+        assert_eq!(el.latch_spring(), Some((k, c)), "{}", ev.name);
+        if ev.name.starts_with('R') {
+            radial += 1;
+            assert!(ev.peak_force_n.is_none(), "{}: rigid", ev.name);
+            assert!(
+                ev.impulse_ns <= 1e-12,
+                "{}: impulse {}",
+                ev.name,
+                ev.impulse_ns
+            );
+            continue;
+        }
+        let peak = ev.peak_force_n.expect("a compliant latch's peak");
+        let v = ev.closing_speed_m_s.abs();
+        assert!(v > 0.1, "{}: closing speed {v}", ev.name);
+        assert!(ev.rigid_at_s.is_some_and(|t| t > ev.time_s), "{}", ev.name);
+        ratios.push((ev.name.clone(), peak / v));
+    }
+    assert_eq!(radial, 36);
+    assert_eq!(sim.solver_stats().fallbacks.latch_without_compliance, 36);
+    assert_eq!(ratios.len(), 54);
+    // Latches congruent under the ring's symmetry (one family: O_diag*,
+    // I_diag*, C*_diag) agree to roundoff; across families to first order
+    // only: l_i'' = (A_i n) q'' + (|v_b - v_a|^2 - ldot_i^2) / l_i, whose
+    // convective part is not proportional to A_i n (measured 7.5e-5).
+    let family = |n: &str| n.replace(|ch: char| ch.is_ascii_digit(), "");
+    let r0 = ratios[0].1;
+    println!("peak / closing speed {r0:.9} N s/m (c = {c})");
+    for (name, r) in &ratios {
+        assert!(*r >= c, "{name}: {r}");
+        let first = ratios
+            .iter()
+            .find(|(n, _)| family(n) == family(name))
+            .unwrap();
+        assert!(
+            (r - first.1).abs() <= 1e-9 * r0,
+            "{name}: {r} vs {} {}",
+            first.0,
+            first.1
+        );
+        assert!((r - r0).abs() <= 1e-3 * r0, "{name}: {r} vs {r0}");
+    }
+    assert_eq!(
+        ratios
+            .iter()
+            .map(|(n, _)| family(n))
+            .collect::<std::collections::BTreeSet<_>>()
+            .len(),
+        3
+    );
+}

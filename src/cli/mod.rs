@@ -118,10 +118,10 @@ struct GenerateArgs {
     /// mast, sail: angle at which the sleeves latch (deg; defaults 60 and 55). The ring latches flat.
     #[arg(long, allow_negative_numbers = true)]
     deploy_deg: Option<f64>,
-    /// mast: compliant latches of this stiffness on every sleeve (N/m); rigid latches without it.
+    /// mast, ring: compliant latches of this stiffness on every sleeve (N/m); rigid latches without it.
     #[arg(long, allow_negative_numbers = true)]
     latch_stiffness: Option<f64>,
-    /// mast: damping of the compliant latches (N s/m; needs --latch-stiffness).
+    /// mast, ring: damping of the compliant latches (N s/m; needs --latch-stiffness).
     #[arg(long, allow_negative_numbers = true)]
     latch_damping: Option<f64>,
 }
@@ -448,14 +448,10 @@ fn generate_cmd(a: GenerateArgs) -> Result<(), Failure> {
             };
             generate::mast(&p).map_err(Failure::input)?
         }
-        Kind::Ring | Kind::Sail if a.latch_stiffness.is_some() || a.latch_damping.is_some() => {
-            // (the synchronized ring engages all 90 sleeves at one instant, at
-            // a fold extremum of the passive ones: compliant there, the run
-            // stalled 290x slower; compliant bay diagonals alone carry nothing,
-            // the rigid passive latches take the whole impact: see BENCHMARKS.md)
+        Kind::Sail if a.latch_stiffness.is_some() || a.latch_damping.is_some() => {
             return Err(Failure::input(
-                "--latch-stiffness/--latch-damping: only the mast has compliant latches; \
-                 the ring's and the sail's are rigid",
+                "--latch-stiffness/--latch-damping: the mast and the ring have compliant latches; \
+                 the sail's are rigid",
             ));
         }
         Kind::Ring => {
@@ -480,6 +476,7 @@ fn generate_cmd(a: GenerateArgs) -> Result<(), Failure> {
                 damping_n_s_per_m: a.damping.unwrap_or(d.damping_n_s_per_m),
                 mount: a.mount.clone().unwrap_or(d.mount.clone()),
                 start_deg: a.start_deg.unwrap_or(d.start_deg),
+                latch: latch_option(&a)?,
                 ..d
             };
             generate::ring::ring(&p).map_err(Failure::input)?

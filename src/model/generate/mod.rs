@@ -32,6 +32,31 @@ pub struct LatchParams {
     pub damping_n_s_per_m: f64,
 }
 
+/// A sleeve's parameters: its lock length and, with `latch`, a compliant
+/// latch (checked).
+pub fn sleeve_lock(
+    latch: Option<&LatchParams>,
+    lock_length_m: f64,
+) -> Result<Vec<(String, Param)>, String> {
+    let spring = match latch {
+        Some(l) => l.sleeve_params()?,
+        None => vec![],
+    };
+    Ok([
+        vec![("lock_length_m".into(), Param::Num(lock_length_m))],
+        spring,
+    ]
+    .concat())
+}
+
+/// The model note of compliant latches.
+pub fn latch_note(l: &LatchParams) -> String {
+    format!(
+        "Latches are compliant: {} N/m and {} N s/m each (a spring-loaded latch pin in a 20 mm telescoping tube: an assumption, not a measured value); the peak latch force depends on it.",
+        l.stiffness_n_per_m, l.damping_n_s_per_m
+    )
+}
+
 impl LatchParams {
     /// The sleeve parameters, after checking them.
     pub fn sleeve_params(&self) -> Result<Vec<(String, Param)>, String> {
@@ -129,10 +154,7 @@ pub fn mast(p: &MastParams) -> Result<ModelDoc, String> {
             p.units
         ));
     }
-    let latch_params = match &p.latch {
-        Some(l) => l.sleeve_params()?,
-        None => vec![],
-    };
+    sleeve_lock(p.latch.as_ref(), 1.0)?;
     let positive = [p.rod_length_m, p.joint_mass_kg, p.dt_s];
     if positive.iter().any(|v| !(v.is_finite() && *v > 0.0)) {
         return Err("rod length, joint mass and dt must be positive and finite".into());
@@ -193,11 +215,7 @@ pub fn mast(p: &MastParams) -> Result<ModelDoc, String> {
             kind: "sleeve".into(),
             name: format!("S{}", u + 1),
             joints: vec![format!("L{u}"), format!("L{}", u + 1)],
-            params: [
-                vec![("lock_length_m".into(), Param::Num(lock_len))],
-                latch_params.clone(),
-            ]
-            .concat(),
+            params: sleeve_lock(p.latch.as_ref(), lock_len)?,
         });
     }
     Ok(ModelDoc {
@@ -216,10 +234,7 @@ pub fn mast(p: &MastParams) -> Result<ModelDoc, String> {
             "Reference geometry is the closed-form rectangle stack at the deploy angle.".into(),
         ]
         .into_iter()
-        .chain(p.latch.map(|l| format!(
-            "Latches are compliant: {} N/m and {} N s/m each (a spring-loaded latch pin in a 20 mm telescoping tube: an assumption, not a measured value); the peak latch force depends on it.",
-            l.stiffness_n_per_m, l.damping_n_s_per_m
-        )))
+        .chain(p.latch.as_ref().map(latch_note))
         .collect(),
         dt_s: p.dt_s,
         end_time_s: 600.0,

@@ -66,6 +66,8 @@ pub struct RingParams {
     /// (false: sides - 2 mechanisms, but the inner ring then flattens ahead of the
     /// outer one and the ring locks up short of deployed; see ring_stowing).
     pub inner_hinges: bool,
+    /// Compliant latches on every sleeve (rigid when None).
+    pub latch: Option<super::LatchParams>,
 }
 
 impl Default for RingParams {
@@ -88,6 +90,7 @@ impl Default for RingParams {
             mount: "hub".into(),
             synchronized: true,
             inner_hinges: true,
+            latch: None,
         }
     }
 }
@@ -316,7 +319,8 @@ fn synchronized_ring(p: &RingParams) -> Result<ModelDoc, String> {
             params,
         };
     let j = |ring: &str, k: usize, end: &str| format!("{ring}{}_{end}", k % n);
-    let lock = |l: f64| vec![("lock_length_m".to_string(), Param::Num(l))];
+    super::sleeve_lock(p.latch.as_ref(), 1.0)?;
+    let lock = |l: f64| super::sleeve_lock(p.latch.as_ref(), l).expect("latch checked");
     let mut elements = Vec::new();
     let fix = fix_joint;
     // The inner ring is held concentric with the outer ring (the radial tie system):
@@ -505,7 +509,11 @@ fn synchronized_ring(p: &RingParams) -> Result<ModelDoc, String> {
             DAMPING_NOTE.into(),
             "The start is part-folded (outer bays sheared 35 deg; the inner bays fold flat at 44.8 deg, and the fully stowed bundle is singular for this topology).".into(),
             NUMBERING_NOTE.into(),
-        ],
+        ]
+        .into_iter()
+        .chain(p.latch.as_ref().map(super::latch_note))
+        .chain(p.latch.map(|_| "The radial members reach their lock at their shortest (the flat state), where nothing moves along them: they have no transient and latch rigid once the diagonals' transients are over.".to_string()))
+        .collect(),
         dt_s: p.dt_s,
         end_time_s: 600.0,
         damping_n_s_per_m: p.damping_n_s_per_m,

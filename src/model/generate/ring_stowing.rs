@@ -202,7 +202,8 @@ pub fn stowing_ring(p: &RingParams) -> Result<ModelDoc, String> {
     } else {
         elements.extend(hub_mount(n));
     }
-    let lock = |l: f64| vec![("lock_length_m".to_string(), Param::Num(l))];
+    super::sleeve_lock(p.latch.as_ref(), 1.0)?;
+    let lock = |l: f64| super::sleeve_lock(p.latch.as_ref(), l).expect("latch checked");
     for k in 0..n {
         for ring in ["O", "I"] {
             elements.push(el(
@@ -342,7 +343,10 @@ pub fn stowing_ring(p: &RingParams) -> Result<ModelDoc, String> {
             DAMPING_NOTE.into(),
             "The synchronized ring (square frames, gears at every post, one mechanism, part-folded start) is `generate ring` (the default; `--sync` names its gears).".into(),
             NUMBERING_NOTE.into(),
-        ],
+        ]
+        .into_iter()
+        .chain(p.latch.as_ref().map(super::latch_note))
+        .collect(),
         dt_s: p.dt_s,
         end_time_s: 600.0,
         damping_n_s_per_m: p.damping_n_s_per_m,
