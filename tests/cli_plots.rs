@@ -156,6 +156,13 @@ fn latch_plot_labels_the_hardest_and_the_last_latch() {
     ] {
         assert!(text.contains(&label), "the latch plot lacks `{label}`");
     }
+    // the bundled mast's latches are compliant: the hardest one's peak force too
+    let hardest = locks
+        .iter()
+        .find(|l| l["name"] == by("impulse_ns").as_str())
+        .unwrap();
+    let peak = format!("peak {:.1} N", hardest["peak_force_n"].as_f64().unwrap());
+    assert!(text.contains(&peak), "the latch plot lacks `{peak}`");
     let bad = bin()
         .arg("simulate")
         .arg(mast())

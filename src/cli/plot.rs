@@ -785,8 +785,12 @@ pub fn latch_plot(
                 *i,
                 l.time_s,
                 format!(
-                    "hardest: {} {:.3} N s at {:.2} s",
-                    l.name, l.impulse_ns, l.time_s
+                    "hardest: {} {:.3} N s{} at {:.2} s",
+                    l.name,
+                    l.impulse_ns,
+                    l.peak_force_n
+                        .map_or(String::new(), |p| format!(", peak {p:.1} N")),
+                    l.time_s
                 ),
             ));
         }
