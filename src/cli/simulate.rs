@@ -281,6 +281,9 @@ pub fn run(a: SimulateArgs) -> Result<(), Failure> {
     let mut stall = StallWatch::new(sim.model(), &checks);
     let stop: (StopReason, String) = loop {
         let (m, s) = (sim.model(), sim.state());
+        if let Some(msg) = checks::jammed(m, s, &checks) {
+            break (StopReason::Stalled, msg);
+        }
         if s.deployed {
             let t = s.deploy_time_s.unwrap_or(0.0);
             break (
@@ -443,12 +446,17 @@ pub fn run(a: SimulateArgs) -> Result<(), Failure> {
         message = write_errors.join("; ");
     }
     let ke = s.kinetic_energy_j(m);
+    let jam = checks::jammed(m, s, &checks).is_some();
     let summary = SimulateJson {
         model: m.name.clone(),
         solver: format!("{:?}", a.solver).to_lowercase(),
         dt_s: dt,
-        deployed: s.deployed,
-        deploy_time_s: s.deploy_time_s.or(s.deployed.then_some(0.0)),
+        deployed: s.deployed && !jam,
+        deploy_time_s: if jam {
+            None
+        } else {
+            s.deploy_time_s.or(s.deployed.then_some(0.0))
+        },
         time_s: s.t_s,
         steps: s.steps,
         wall_time_s: wall,

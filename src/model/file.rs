@@ -19,6 +19,7 @@
 //! stall_rel_motion = 1e-7    # at rest: no joint moves this fraction of the size ...
 //! stall_time_s = 1.0         # ... within this time; so long at rest: `stalled`
 //! max_steps = 2000000        # step budget of one run
+//! jam_error_rel = 1e-6       # rigid with sleeves unlatched, farther from the reference: `stalled`
 //! [solver]                   # all optional: tolerances and iteration limits,
 //! newmark_max_iterations = 60  # keys and defaults in solver::settings
 //!
@@ -107,6 +108,7 @@ struct ChecksSpec {
     stall_rel_motion: Option<f64>,
     stall_time_s: Option<f64>,
     max_steps: Option<u64>,
+    jam_error_rel: Option<f64>,
 }
 
 /// Exactly three numbers [x, y, z]: serde's fixed-size arrays would take the
@@ -590,6 +592,9 @@ fn run_checks(c: &ChecksSpec) -> Result<RunChecks, String> {
     }
     if let Some(v) = positive("stall_time_s", c.stall_time_s)? {
         r.stall_time_s = v;
+    }
+    if let Some(v) = positive("jam_error_rel", c.jam_error_rel)? {
+        r.jam_error_rel = v;
     }
     if let Some(v) = c.max_steps {
         if v == 0 {

@@ -391,6 +391,7 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
     let lock_period = Duration::from_secs_f64(a.lock_period_s);
     let ns = normalize_namespace(&a.namespace).map_err(input)?;
     let loaded = crate::model::load(&a.model).map_err(|e| input(e.to_string()))?;
+    let checks = loaded.checks.clone();
     let mut sim = Simulator::new(loaded.model, Options::default())
         .map_err(|e| input(format!("{}: {e}", a.model.display())))?;
     let dt = sim.model().dt_s;
@@ -552,10 +553,13 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
             n += 1;
             summary.steps += 1;
             if sim.state().deployed {
-                say!(
-                    "truss_deploy: fully deployed at t = {:.3} s; holding the final state",
-                    sim.state().t_s
-                );
+                match crate::solver::checks::jammed(sim.model(), sim.state(), &checks) {
+                    Some(jam) => tell!("truss_deploy: {jam}; holding the final state"),
+                    None => say!(
+                        "truss_deploy: fully deployed at t = {:.3} s; holding the final state",
+                        sim.state().t_s
+                    ),
+                }
                 lock_dirty = true;
             }
         }
@@ -647,7 +651,8 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
     };
 
     summary.sim_time_s = sim.state().t_s;
-    summary.deployed = sim.state().deployed;
+    summary.deployed = sim.state().deployed
+        && crate::solver::checks::jammed(sim.model(), sim.state(), &checks).is_none();
     summary.accepted_commands = book.accepted;
     summary.rejected_commands = book.rejected;
     summary.stop_reason = stop_reason;

@@ -33,6 +33,10 @@ pub struct RunChecks {
     pub max_steps: u64,
     /// Smallest time step as a fraction of the run's length. Default 1e-9.
     pub min_dt_fraction: f64,
+    /// A truss that turns rigid with sleeves unlatched has deployed only
+    /// within this distance of its reference geometry (`final_error_rel`);
+    /// farther, it jammed short of deployment (stop `stalled`). Default 1e-6.
+    pub jam_error_rel: f64,
 }
 
 impl Default for RunChecks {
@@ -44,6 +48,7 @@ impl Default for RunChecks {
             stall_time_s: 1.0,
             max_steps: 2_000_000,
             min_dt_fraction: 1e-9,
+            jam_error_rel: 1e-6,
         }
     }
 }
@@ -162,6 +167,25 @@ pub fn unlatched_summary(model: &Model, state: &State) -> String {
     }
 }
 
+/// A truss rigid (no mechanism left) with sleeves unlatched, farther than
+/// `jam_error_rel` from its reference geometry: it locked up short of
+/// deployment. Returns the stop message; None when it is deployed (every
+/// sleeve latched, or within the tolerance) or has no reference to tell.
+pub fn jammed(model: &Model, state: &State, checks: &RunChecks) -> Option<String> {
+    if !state.deployed || model.locks.iter().all(|&e| state.locked[e]) {
+        return None;
+    }
+    let err = state.final_error_rel(model)?;
+    (err > checks.jam_error_rel).then(|| {
+        format!(
+            "jammed at t = {:.6} s: rigid (no mechanism left) {err:.3e} of its size from the deployed geometry (> [checks] jam_error_rel = {:e}); {}",
+            state.t_s,
+            checks.jam_error_rel,
+            unlatched_summary(model, state)
+        )
+    })
+}
+
 /// Watches for a truss at rest that no drive moves: after every step, the
 /// motion a joint would make within `stall_time_s` from the current velocity
 /// and acceleration, d = |v|_max T + |a|_max T^2 / 2, is compared with
@@ -243,4 +267,45 @@ pub fn energy_unbalanced(model: &Model, state: &State, checks: &RunChecks) -> Op
         e.motor_work_j,
         e.friction_loss_j
     ))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{jammed, RunChecks};
+    use crate::model::generate::{self, MastParams};
+    use crate::solver::{Options, Simulator};
+
+    /// Rigid with sleeves unlatched is a jam only away from the reference:
+    /// at the start geometry (far from it) a jam naming the nearest open
+    /// sleeve; at the reference, with every sleeve latched, or not rigid,
+    /// none.
+    #[test]
+    fn rigid_short_of_the_reference_is_a_jam() {
+        let text = generate::mast(&MastParams::default()).unwrap().to_toml();
+        let model = crate::model::parse(&text, "mast.toml").unwrap().model;
+        let sim = Simulator::new(model, Options::default()).unwrap();
+        let (m, checks) = (sim.model(), RunChecks::default());
+        let mut s = sim.state().clone();
+        assert_eq!(jammed(m, &s, &checks), None, "not rigid");
+        s.deployed = true;
+        s.locked[m.locks[0]] = true;
+        let msg = jammed(m, &s, &checks).expect("a jam at the start geometry");
+        println!("{msg}");
+        assert!(msg.starts_with("jammed at t = 0.000000 s"), "{msg}");
+        assert!(
+            msg.contains(&format!(
+                "{} of {} sleeves unlatched",
+                m.locks.len() - 1,
+                m.locks.len()
+            )),
+            "{msg}"
+        );
+        s.x.clone_from(m.reference.as_ref().unwrap());
+        assert_eq!(jammed(m, &s, &checks), None, "at the reference");
+        s.x.clone_from(&m.x0);
+        for &e in &m.locks {
+            s.locked[e] = true;
+        }
+        assert_eq!(jammed(m, &s, &checks), None, "every sleeve latched");
+    }
 }
