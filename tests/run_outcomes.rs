@@ -604,3 +604,34 @@ fn generate_with_bad_options_exits_2_and_writes_nothing() {
         text(&o.stderr)
     );
 }
+
+/// A step that fails ends the run as `error` (exit 1) with what was there:
+/// the mechanisms left and the nearest unlatched sleeve (here the mast's
+/// Newmark iteration is allowed one iteration and no sub-step halving).
+#[test]
+fn a_failed_step_names_where_the_truss_was() {
+    let d = temp_dir("failed_step");
+    let mast = std::fs::read_to_string(model("pantograph_mast.toml")).unwrap();
+    let at = mast.find("[[joint]]").unwrap();
+    let m = d.join("mast.toml");
+    let solver = "[solver]\nnewmark_max_iterations = 1\nmin_substep_fraction = 0.9\n\n";
+    std::fs::write(&m, format!("{}{solver}{}", &mast[..at], &mast[at..])).unwrap();
+    let j = d.join("s.json");
+    let o = run(&[
+        "simulate",
+        &m.display().to_string(),
+        "--json",
+        &j.display().to_string(),
+    ]);
+    let s = read_json(&j);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o.stderr));
+    assert_eq!(s["stop_reason"], "error");
+    let msg = s["stop_message"].as_str().unwrap();
+    for part in [
+        "the Newmark iteration did not converge",
+        "1 mechanism(s) left",
+        "4 of 4 sleeves unlatched, the nearest `S",
+    ] {
+        assert!(msg.contains(part), "`{part}` not in: {msg}");
+    }
+}

@@ -350,7 +350,12 @@ pub fn run(a: SimulateArgs) -> Result<(), Failure> {
         if let Err(e) = sim.step(h) {
             break (
                 StopReason::Error,
-                format!("the step from t = {:.6} s failed: {e}", sim.state().t_s),
+                format!(
+                    "the step from t = {:.6} s failed: {e} (there: {} mechanism(s) left; {})",
+                    sim.state().t_s,
+                    sim.state().mechanisms,
+                    checks::unlatched_summary(sim.model(), sim.state())
+                ),
             );
         }
         let (m, s) = (sim.model(), sim.state());
