@@ -78,4 +78,32 @@ fn plain_and_transient_steps_do_not_allocate() {
         allocations, 0,
         "20 steps through the latch transient made {allocations} heap allocations"
     );
+    // Compliant elements (the bundled ring with compliant gears) reuse their
+    // buffers for their forces and their energy.
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("models/double_ring.toml");
+    let text = std::fs::read_to_string(path).unwrap().replace(
+        "type = \"sync_hinge\"\n",
+        "type = \"sync_hinge\"\nstiffness_n_per_m = 100.0\ndamping_n_s_per_m = 5.0\n",
+    );
+    assert!(text.contains("stiffness_n_per_m = 100.0"));
+    let model = truss_deploy::model::parse(&text, "gears.toml")
+        .unwrap()
+        .model;
+    let mut sim = Simulator::new(model, Options::default()).unwrap();
+    for _ in 0..5 {
+        sim.step(0.05).unwrap();
+    }
+    let before = ALLOCATIONS.load(Ordering::Relaxed);
+    for _ in 0..20 {
+        assert_eq!(sim.step(0.05).unwrap(), 0);
+    }
+    let allocations = ALLOCATIONS.load(Ordering::Relaxed) - before;
+    assert!(
+        sim.state().energy.element_spring_energy_j != 0.0,
+        "the gears work"
+    );
+    assert_eq!(
+        allocations, 0,
+        "20 steps with compliant gears made {allocations} heap allocations"
+    );
 }

@@ -248,7 +248,12 @@ impl StallWatch {
 pub fn energy_unbalanced(model: &Model, state: &State, checks: &RunChecks) -> Option<String> {
     let ke = state.kinetic_energy_j(model);
     let e = &state.energy;
-    let scale = e.motor_work_j.abs().max(e.gravity_work_j.abs()).max(ke);
+    let scale = e
+        .motor_work_j
+        .abs()
+        .max(e.gravity_work_j.abs())
+        .max(ke)
+        .max(e.element_spring_energy_j.abs());
     let err = e.balance_rel_error(ke);
     if err <= checks.energy_balance_rel_tol || (scale <= checks.energy_floor_j && err.is_finite()) {
         return None;

@@ -62,8 +62,9 @@ pub struct LatchTransient {
     pub dissipated_j: f64,
 }
 
-/// Energy bookkeeping (J). Balance: kinetic + latch_spring_energy = cable_work
-/// + gravity_work - damping_loss - lock_loss - latch_damping_loss.
+/// Energy bookkeeping (J). Balance: kinetic + latch_spring_energy +
+/// element_spring_energy = cable_work + gravity_work - damping_loss -
+/// lock_loss - latch_damping_loss.
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
 pub struct Energy {
     /// Work of the motors: motor tension times the cable length reeled in.
@@ -78,6 +79,9 @@ pub struct Energy {
     pub latch_damping_loss_j: f64,
     /// Elastic energy held in engaged compliant latches now (J).
     pub latch_spring_energy_j: f64,
+    /// Elastic energy compliant elements (`Constraint::spring`) gained since
+    /// the start (J); their dampers' loss is in `damping_loss_j`.
+    pub element_spring_energy_j: f64,
 }
 
 impl Energy {
@@ -87,12 +91,15 @@ impl Energy {
             - self.damping_loss_j
             - self.lock_loss_j
             - self.latch_damping_loss_j
-            - self.latch_spring_energy_j;
+            - self.latch_spring_energy_j
+            - self.element_spring_energy_j;
+        // (elastic energy compliant elements gained or gave up flowed too)
         let scale = self
             .motor_work_j
             .abs()
             .max(self.gravity_work_j.abs())
             .max(kinetic_j)
+            .max(self.element_spring_energy_j.abs())
             .max(1e-300);
         (kinetic_j - net).abs() / scale
     }

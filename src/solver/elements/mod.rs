@@ -131,6 +131,17 @@ pub struct LockCondition {
     pub rate_m_s: f64,
 }
 
+/// A compliant element's spring-damper (`Constraint::spring`): the element
+/// imposes no rows; its residual Phi (`rows` of them, each a length, m) is
+/// held by the force -A^T (k Phi + c A Xdot) on its joints, with elastic
+/// energy 1/2 k |Phi|^2 (a gear train's torsional compliance, a soft hinge).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ElementSpring {
+    pub rows: usize,
+    pub stiffness_n_per_m: f64,
+    pub damping_n_s_per_m: f64,
+}
+
 /// A constraint macroelement. Rows are the element's own equations; `jacobian`
 /// writes `rows x 3*joints().len()` values, row-major, columns ordered as
 /// (x, y, z) of `joints()[0]`, then of `joints()[1]`, and so on.
@@ -179,6 +190,11 @@ pub trait Constraint: Send + Sync + fmt::Debug {
     /// lock length, tension T = k (l - L_lock) + c ldot, until its transient
     /// settles and it turns rigid. None: a rigid latch (an inelastic impact).
     fn latch_spring(&self) -> Option<(f64, f64)> {
+        None
+    }
+    /// A compliant element: its spring-damper (then `rows` is 0, and
+    /// `residual`, `jacobian` write the spring's rows). None: rigid rows.
+    fn spring(&self) -> Option<ElementSpring> {
         None
     }
     /// For lockable elements: the current length and its rate (m, m/s), used to

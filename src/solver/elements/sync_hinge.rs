@@ -7,8 +7,11 @@
 //!     (X_a - X_b) . (X_r - X_p) / L_pr = 0     (equal distance along the radial member)
 //! `mirror = "both"` (default) keeps both rows, "axial" or "radial" one of them.
 //! Each row is bilinear: Adot Xdot = 2 (V_a - V_b) . (V_q - V_p) / L (likewise for r).
+//! With `stiffness_n_per_m` (and `damping_n_s_per_m`) the gears are compliant
+//! (a gear train's torsional compliance seen at the members' far ends): the
+//! rows are not imposed but held by the spring-damper -A^T (k Phi + c A Xdot).
 
-use super::{at, Constraint, ElementSpec};
+use super::{at, Constraint, ElementSpec, ElementSpring};
 
 #[derive(Debug)]
 pub struct SyncHinge {
@@ -17,11 +20,31 @@ pub struct SyncHinge {
     joints: [usize; 5],
     /// Which of the axes q (index 1) and r (index 2) carry a row, with 1/L scales.
     axes: Vec<(usize, f64)>,
+    /// Compliant gears: stiffness (N/m) and damping (N s/m) on the rows.
+    spring: Option<(f64, f64)>,
 }
 
 pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, String> {
     spec.expect_joints(5, "hinge p, post end q, radial end r, member ends a and b")?;
-    spec.only_params(&["mirror"])?;
+    spec.only_params(&["mirror", "stiffness_n_per_m", "damping_n_s_per_m"])?;
+    let spring = match (
+        spec.num("stiffness_n_per_m")?,
+        spec.num("damping_n_s_per_m")?,
+    ) {
+        (None, None) => None,
+        (None, Some(_)) => {
+            return Err("`damping_n_s_per_m` needs `stiffness_n_per_m` (compliant gears)".into())
+        }
+        (Some(k), c) => {
+            let c = c.unwrap_or(0.0);
+            if !(k > 0.0 && c >= 0.0) {
+                return Err(format!(
+                    "`stiffness_n_per_m` = {k} must be > 0 and `damping_n_s_per_m` = {c} >= 0"
+                ));
+            }
+            Some((k, c))
+        }
+    };
     let j = [
         spec.joints[0],
         spec.joints[1],
@@ -53,13 +76,25 @@ pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, Stri
         name: spec.name.clone(),
         joints: j,
         axes,
+        spring,
     }))
 }
 
 impl Constraint for SyncHinge {
     super::identity!("sync_hinge");
     fn rows(&self, _locked: bool) -> usize {
-        self.axes.len()
+        if self.spring.is_some() {
+            0
+        } else {
+            self.axes.len()
+        }
+    }
+    fn spring(&self) -> Option<ElementSpring> {
+        self.spring.map(|(k, c)| ElementSpring {
+            rows: self.axes.len(),
+            stiffness_n_per_m: k,
+            damping_n_s_per_m: c,
+        })
     }
     fn residual(&self, x: &[f64], out: &mut [f64]) {
         let [p, _, _, a, b] = self.joints;

@@ -66,6 +66,8 @@ pub(super) struct Core {
     /// radial sleeves, shortest at the flat state): (element, instant it
     /// reached its lock, s). They latch rigid once the transients are over.
     pub waiting: Vec<(usize, f64)>,
+    /// The compliant elements' buffers.
+    pub element_springs: super::springs::ElementSprings,
     /// What the stepping loop did (the aux solver's work is not counted).
     pub stats: SolverStats,
 }
@@ -109,6 +111,7 @@ impl Core {
             least_work: None,
             springs: Vec::new(),
             waiting: Vec::new(),
+            element_springs: super::springs::ElementSprings::new(model),
             stats: SolverStats::default(),
         }
     }

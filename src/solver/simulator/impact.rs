@@ -408,9 +408,14 @@ impl Simulator {
             &s.x,
             &core.x,
         );
+        // (and the compliant elements' elastic energy changes over it)
+        let (elastic_j, _) =
+            core.element_springs
+                .book_move(model, (&s.x, &s.v), (&core.x, &core.v));
+        s.energy.element_spring_energy_j += elastic_j;
         core.commit_trial(s);
         let ke_after = s.kinetic_energy_j(model);
-        s.energy.lock_loss_j += ke_before - ke_after + moved_j;
+        s.energy.lock_loss_j += ke_before - ke_after + moved_j - elastic_j;
         self.state.mechanisms = self.mechanisms_now();
         // Rigid before every element latched: trusted from an SVD only (the
         // dense solver's, or one confirming a pivot rank; not past

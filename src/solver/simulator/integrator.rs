@@ -18,7 +18,8 @@ use crate::solver::state::State;
 use crate::solver::SolverError;
 
 impl Core {
-    /// Applied forces Q at the trial (x, v): cables, damping, gravity. The cable
+    /// Applied forces Q at the trial (x, v): cables, compliant latches and
+    /// elements, damping, gravity. The cable
     /// inertia term uses `a_guess` as the acceleration estimate.
     fn applied_forces(&mut self, model: &Model, cmd: &[f64]) {
         self.q.fill(0.0);
@@ -55,6 +56,9 @@ impl Core {
                 self.q[3 * jb + k3] -= f;
             }
         }
+        // Compliant elements: -A^T (k Phi + c A Xdot).
+        self.element_springs
+            .add_forces(model, &self.x, &self.v, &mut self.q);
         let g = model.gravity_m_s2;
         let damp_v = if self.implicit_h.is_some() {
             &self.v_star

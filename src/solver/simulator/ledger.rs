@@ -7,6 +7,7 @@
 //!   damping     sum_i c 1/2 (v_i,old + v_i,new) dx_i
 //!   gravity     sum_i m_i g_i dx_i
 //!   latch damper  sum_latches c 1/2 (ldot_old + ldot_new) dl,  spring 1/2 k g^2
+//!   compliant elements  damper c 1/2 (rate_old + rate_new) . dPhi, spring 1/2 k |Phi|^2
 //! so that kinetic + latch spring = cable + gravity - damping - latch losses
 //! (the balance `Energy::balance_rel_error` checks).
 
@@ -24,6 +25,12 @@ impl Simulator {
         self.core.prev_h2 = self.core.prev_h;
         self.core.a_prev.copy_from_slice(&self.state.a);
         self.core.prev_h = Some(h);
+        let core = &mut self.core;
+        let (elastic_j, damper_j) = core.element_springs.book_move(
+            &self.model,
+            (&self.state.x, &self.state.v),
+            (&core.x, &core.v),
+        );
         let (m, s, c) = (&self.model, &mut self.state, &self.core);
         let e = &mut s.energy;
         book_drive_work(
@@ -39,6 +46,8 @@ impl Simulator {
             let dx = c.x[i] - s.x[i];
             e.damping_loss_j += m.damping_n_s_per_m * 0.5 * (s.v[i] + c.v[i]) * dx;
         }
+        e.element_spring_energy_j += elastic_j;
+        e.damping_loss_j += damper_j;
         // Compliant latches: the damper's work c ldot dl by the trapezoid, as
         // the joint damping above; the spring's energy 1/2 k g^2 is exact.
         // Per latch, its force impulse (trapezoid of T) and dissipation.

@@ -10,6 +10,9 @@
 //!                impact::latch (velocity jump, impulses, mobility)
 //! ```
 //!
+//! Compliant elements (`springs`) add their forces in the integrator and
+//! their energy in the ledger.
+//!
 //! `core` holds the buffers, the Jacobian, the backend and the counters;
 //! every numeric policy comes from the model's [`SolverSettings`], passed to
 //! each stage. Cable commands are piecewise constant with jumps at step
@@ -23,6 +26,7 @@ mod integrator;
 mod ledger;
 mod newton;
 mod projection;
+mod springs;
 
 use self::core::{Core, TrialCopy};
 use self::events::gap;

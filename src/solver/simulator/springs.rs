@@ -1,0 +1,118 @@
+//! Compliant elements (`Constraint::spring`): an element whose rows are held
+//! by a spring-damper instead of being imposed. On its residual Phi (m) and
+//! rate A Xdot it applies the force
+//!     Q = -A^T (k Phi + c A Xdot)
+//! (stage `integrator`, with the cables and damping), stores the elastic
+//! energy 1/2 k |Phi|^2 and dissipates c |A Xdot|^2 (stage `ledger`). The
+//! buffers are made once, with the model.
+
+use crate::solver::elements::ElementSpring;
+use crate::solver::model::Model;
+
+/// One compliant element's buffers: its residual and rate rows at the last
+/// evaluation and the one before, and its Jacobian rows.
+#[derive(Debug)]
+struct SpringWork {
+    element: usize,
+    spring: ElementSpring,
+    phi: Vec<f64>,
+    rate: Vec<f64>,
+    phi_before: Vec<f64>,
+    rate_before: Vec<f64>,
+    jac: Vec<f64>,
+}
+
+/// Every compliant element of a model.
+#[derive(Debug, Default)]
+pub(super) struct ElementSprings {
+    work: Vec<SpringWork>,
+}
+
+impl ElementSprings {
+    pub fn new(model: &Model) -> ElementSprings {
+        let work = model
+            .elements
+            .iter()
+            .enumerate()
+            .filter_map(|(e, el)| {
+                let spring = el.spring()?;
+                let r = spring.rows;
+                Some(SpringWork {
+                    element: e,
+                    spring,
+                    phi: vec![0.0; r],
+                    rate: vec![0.0; r],
+                    phi_before: vec![0.0; r],
+                    rate_before: vec![0.0; r],
+                    jac: vec![0.0; r * 3 * el.joints().len()],
+                })
+            })
+            .collect();
+        ElementSprings { work }
+    }
+
+    /// Phi and A Xdot of every compliant element at (x, v); the previous
+    /// values move to `*_before`.
+    fn eval(&mut self, model: &Model, x: &[f64], v: &[f64]) {
+        for w in &mut self.work {
+            let el = &model.elements[w.element];
+            std::mem::swap(&mut w.phi, &mut w.phi_before);
+            std::mem::swap(&mut w.rate, &mut w.rate_before);
+            el.residual(x, &mut w.phi);
+            el.jacobian(x, &mut w.jac);
+            let joints = el.joints();
+            let width = 3 * joints.len();
+            for (r, rate) in w.rate.iter_mut().enumerate() {
+                let row = &w.jac[r * width..(r + 1) * width];
+                *rate = row
+                    .iter()
+                    .enumerate()
+                    .map(|(col, a)| a * v[3 * joints[col / 3] + col % 3])
+                    .sum();
+            }
+        }
+    }
+
+    /// Adds the springs' forces -A^T (k Phi + c A Xdot) at (x, v) to `q`.
+    pub fn add_forces(&mut self, model: &Model, x: &[f64], v: &[f64], q: &mut [f64]) {
+        self.eval(model, x, v);
+        for w in &self.work {
+            let joints = model.elements[w.element].joints();
+            let width = 3 * joints.len();
+            let (k, c) = (w.spring.stiffness_n_per_m, w.spring.damping_n_s_per_m);
+            for (r, (phi, rate)) in w.phi.iter().zip(&w.rate).enumerate() {
+                let f = k * phi + c * rate;
+                for (col, a) in w.jac[r * width..(r + 1) * width].iter().enumerate() {
+                    q[3 * joints[col / 3] + col % 3] -= f * a;
+                }
+            }
+        }
+    }
+
+    /// Over a move of the joints from (x0, v0) to (x1, v1): the change of the
+    /// springs' elastic energy, sum 1/2 k (|Phi_1|^2 - |Phi_0|^2) (exact), and
+    /// the dampers' dissipation, sum c 1/2 (rate_0 + rate_1) . (Phi_1 - Phi_0)
+    /// (the trapezoid, as the joint damping's) (J).
+    pub fn book_move(
+        &mut self,
+        model: &Model,
+        (x0, v0): (&[f64], &[f64]),
+        (x1, v1): (&[f64], &[f64]),
+    ) -> (f64, f64) {
+        if self.work.is_empty() {
+            return (0.0, 0.0);
+        }
+        self.eval(model, x0, v0);
+        self.eval(model, x1, v1);
+        let (mut elastic_j, mut damper_j) = (0.0, 0.0);
+        for w in &self.work {
+            let (k, c) = (w.spring.stiffness_n_per_m, w.spring.damping_n_s_per_m);
+            for r in 0..w.phi.len() {
+                let (p0, p1) = (w.phi_before[r], w.phi[r]);
+                elastic_j += 0.5 * k * (p1 * p1 - p0 * p0);
+                damper_j += c * 0.5 * (w.rate_before[r] + w.rate[r]) * (p1 - p0);
+            }
+        }
+        (elastic_j, damper_j)
+    }
+}
