@@ -79,6 +79,34 @@ fn a_compliant_gear_is_the_closed_form_oscillator_to_second_order() {
     }
 }
 
+/// The iteration takes the spring explicitly: at a step of 0.05 s (the
+/// spring's explicit limit is ~6 ms here) the sub-steps are cut to keep it
+/// contracting (`spring_step_gain`) instead of failing and halving (without
+/// the cut: 360 halvings in 40 steps). The energy ledger still balances to
+/// the iteration's tolerance (the trapezoidal rule conserves a linear
+/// oscillator's energy at any step; its phase error grows as (omega h)^2).
+#[test]
+fn a_stiff_compliant_gear_cuts_the_sub_steps_instead_of_failing() {
+    let (m, k, z0): (f64, f64, f64) = (0.2, 5000.0, 0.01);
+    let model = parse(&oscillator(m, k, 0.0, z0), "gear.toml")
+        .unwrap()
+        .model;
+    let mut sim = Simulator::new(model, Options::default()).unwrap();
+    for _ in 0..4 {
+        sim.step(0.05).unwrap();
+    }
+    let (st, s) = (sim.solver_stats(), sim.state());
+    let balance = s.energy.balance_rel_error(s.kinetic_energy_j(sim.model()));
+    println!(
+        "{} sub-steps, {} halvings, balance {balance:.1e}",
+        st.substeps, st.fallbacks.substep_halvings
+    );
+    assert_eq!(st.fallbacks.substep_halvings, 0);
+    // h <= sqrt(4 gain / (k w)) = 6.3 ms with w = 1/m: 8 sub-steps per step
+    assert!(st.substeps >= 4 * 8, "{} sub-steps", st.substeps);
+    assert!(balance <= 1e-9, "balance {balance}");
+}
+
 /// Parameters: a damper needs a stiffness; both must be usable numbers.
 #[test]
 fn a_compliant_gear_needs_a_positive_stiffness() {

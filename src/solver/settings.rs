@@ -145,6 +145,10 @@ pub struct SolverSettings {
     /// radial sleeves at the flat state, where w is roundoff: ~1e-15) has
     /// no transient: it latches rigid, after the others' transients.
     pub latch_immobile_rel: f64,
+    /// Compliant elements (`Constraint::spring`) enter the Newmark iteration
+    /// explicitly: a sub-step is at most as long as keeps the iteration map's
+    /// gain on each spring row, (h^2/4) k w + (h/2) c w, at this (< 1).
+    pub spring_step_gain: f64,
 
     // --- mobility (the rank decision itself is `crate::solver::rank`) ---
     /// Largest model (coordinates) whose mobility is counted by a dense SVD
@@ -192,6 +196,7 @@ impl Default for SolverSettings {
             latch_settle_rel: 1e-3,
             latch_max_periods: 50.0,
             latch_immobile_rel: 1e-9,
+            spring_step_gain: 0.25,
             rank_check_max_coords: 1500,
         }
     }
@@ -247,6 +252,7 @@ impl SolverSettings {
             ("latch_settle_rel", self.latch_settle_rel),
             ("latch_max_periods", self.latch_max_periods),
             ("latch_immobile_rel", self.latch_immobile_rel),
+            ("spring_step_gain", self.spring_step_gain),
         ];
         for (key, v) in positive {
             if !(v.is_finite() && v > 0.0) {
@@ -271,6 +277,7 @@ impl SolverSettings {
             ("newmark_newton_curvature", self.newmark_newton_curvature),
             ("min_substep_fraction", self.min_substep_fraction),
             ("step_end_rel", self.step_end_rel),
+            ("spring_step_gain", self.spring_step_gain),
         ] {
             if v >= 1.0 {
                 return Err(format!("[solver] {key} = {v}: it must be below 1"));

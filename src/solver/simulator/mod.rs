@@ -299,7 +299,12 @@ impl Simulator {
             }
             let h = h_try
                 .min(t_end - self.state.t_s)
-                .min(self.transient_step_s());
+                .min(self.transient_step_s())
+                .min(self.core.element_springs.max_step_s(
+                    &self.model,
+                    &self.state.x,
+                    self.settings.spring_step_gain,
+                ));
             let (st, base) = (&self.settings, SolveMode::Basic);
             match self.core.newmark(&self.model, &self.state, h, st, base) {
                 Err(SolverError::NoConvergence { .. }) if h > dt * st.min_substep_fraction => {

@@ -73,6 +73,40 @@ impl ElementSprings {
         }
     }
 
+    /// Longest step over which the Newmark fixed-point iteration contracts
+    /// on the springs, which it takes explicitly (s): per row, with w = sum
+    /// A_j^2 / m_j the row's inverse mass (of the free joints, a bound on the
+    /// constrained one), the iteration map's gain (h^2/4) k w + (h/2) c w is
+    /// held at `gain` (< 1). Infinite without compliant elements.
+    pub fn max_step_s(&mut self, model: &Model, x: &[f64], gain: f64) -> f64 {
+        let mut h_max = f64::INFINITY;
+        for w in &mut self.work {
+            let el = &model.elements[w.element];
+            el.jacobian(x, &mut w.jac);
+            let joints = el.joints();
+            let width = 3 * joints.len();
+            let (k, c) = (w.spring.stiffness_n_per_m, w.spring.damping_n_s_per_m);
+            for r in 0..w.spring.rows {
+                let inv_mass: f64 = w.jac[r * width..(r + 1) * width]
+                    .iter()
+                    .enumerate()
+                    .map(|(col, a)| a * a * model.inv_mass[3 * joints[col / 3] + col % 3])
+                    .sum();
+                // (k w / 4) h^2 + (c w / 2) h - gain = 0, its positive root
+                let (qa, qb) = (0.25 * k * inv_mass, 0.5 * c * inv_mass);
+                let h = if qa > 0.0 {
+                    (-qb + (qb * qb + 4.0 * qa * gain).sqrt()) / (2.0 * qa)
+                } else if qb > 0.0 {
+                    gain / qb
+                } else {
+                    f64::INFINITY
+                };
+                h_max = h_max.min(h);
+            }
+        }
+        h_max
+    }
+
     /// Adds the springs' forces -A^T (k Phi + c A Xdot) at (x, v) to `q`.
     pub fn add_forces(&mut self, model: &Model, x: &[f64], v: &[f64], q: &mut [f64]) {
         self.eval(model, x, v);
