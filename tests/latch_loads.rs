@@ -527,26 +527,38 @@ fn the_rings_compliant_latches_peak_in_proportion_to_their_closing_speeds() {
     assert_eq!(radial, 36);
     assert_eq!(sim.solver_stats().fallbacks.latch_without_compliance, 36);
     assert_eq!(ratios.len(), 54);
-    // Latches congruent under the ring's symmetry (one family: O_diag*,
-    // I_diag*, C*_diag) agree to roundoff; across families to first order
-    // only: l_i'' = (A_i n) q'' + (|v_b - v_a|^2 - ldot_i^2) / l_i, whose
-    // convective part is not proportional to A_i n (measured 7.5e-5).
+    // The peak is the force at contact c ldot_i plus what the one mode adds
+    // after it: (peak - c ldot_i) / ldot_i = k q + c (q' - q'(0)) over q'(0)
+    // at the peak, one number for every latch. Latches congruent under the
+    // ring's symmetry (one family: O_diag*, I_diag*, C*_diag) agree to
+    // roundoff; across families to first order only: l_i'' = (A_i n) q'' +
+    // (|v_b - v_a|^2 - ldot_i^2) / l_i, whose convective part is not
+    // proportional to A_i n (measured: 1.057, 1.079, 1.086 N s/m, 2.8 %).
+    // (Latches engaging each on its own mass would differ by their own
+    // k - c^2 w_i.)
     let family = |n: &str| n.replace(|ch: char| ch.is_ascii_digit(), "");
-    let r0 = ratios[0].1;
-    println!("peak / closing speed {r0:.9} N s/m (c = {c})");
-    for (name, r) in &ratios {
-        assert!(*r >= c, "{name}: {r}");
-        let first = ratios
+    let excess: Vec<(String, f64)> = ratios.iter().map(|(n, r)| (n.clone(), r - c)).collect();
+    let e0 = excess[0].1;
+    println!(
+        "peak / closing speed {:.9} N s/m (c = {c}): excess {e0:.6}",
+        ratios[0].1
+    );
+    for (name, e) in &excess {
+        assert!(
+            *e > 0.0,
+            "{name}: the peak is after contact, above c ldot: {e}"
+        );
+        let first = excess
             .iter()
             .find(|(n, _)| family(n) == family(name))
             .unwrap();
         assert!(
-            (r - first.1).abs() <= 1e-9 * r0,
-            "{name}: {r} vs {} {}",
+            (e - first.1).abs() <= 1e-9 * e0,
+            "{name}: {e} vs {} {}",
             first.0,
             first.1
         );
-        assert!((r - r0).abs() <= 1e-3 * r0, "{name}: {r} vs {r0}");
+        assert!((e - e0).abs() <= 0.05 * e0, "{name}: {e} vs {e0}");
     }
     assert_eq!(
         ratios

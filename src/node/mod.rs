@@ -397,7 +397,8 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
     let dt = sim.model().dt_s;
     let rate = a.rate.unwrap_or((a.rtf / dt).min(100.0));
     let pub_period = Duration::from_secs_f64(1.0 / rate);
-    let view = publish::View::new(sim.model());
+    let mut view = publish::View::new(sim.model());
+    view.checks = checks.clone();
     let mut rec = match &a.record {
         Some(p) => Some(record::Recorder::create(p, &ns, a.markers_for).map_err(input)?),
         None => None,

@@ -29,6 +29,9 @@ pub struct View {
     /// Publications whose least-work split failed (the solver's own split
     /// was published instead); the first is reported on stderr.
     pub least_work_failures: std::cell::Cell<u64>,
+    /// The run checks: a truss rigid short of its reference is not published
+    /// as deployed (`checks::jammed`).
+    pub checks: crate::solver::checks::RunChecks,
 }
 
 fn angle(x: &[f64], r: &[usize; 4]) -> f64 {
@@ -79,6 +82,7 @@ impl View {
                 .collect(),
             cable_names: m.cables.iter().map(|c| c.name.clone()).collect(),
             least_work_failures: std::cell::Cell::new(0),
+            checks: crate::solver::checks::RunChecks::default(),
         }
     }
 
@@ -242,7 +246,7 @@ impl View {
             time_s,
             impulse_ns: imp,
             energy_lost_j: en,
-            deployed: s.deployed,
+            deployed: s.deployed && crate::solver::checks::jammed(m, s, &self.checks).is_none(),
             paused,
             cable_names: self.cable_names.clone(),
             cable_tensions_n: s.cable_tension_cmd_n.clone(),

@@ -260,15 +260,16 @@ pub fn energy_unbalanced(model: &Model, state: &State, checks: &RunChecks) -> Op
     }
     Some(format!(
         "the energy balance is off by {err:.3e} of the energy that flowed (tolerance \
-         {:e}, [checks] energy_balance_rel_tol): kinetic {ke:.6e} J against cable work \
-         {:.6e} J + gravity work {:.6e} J - damping {:.6e} J - latches {:.6e} J (motor \
-         {:.6e} J, friction {:.6e} J); the computed motion is not the one of the model's \
-         forces, try a smaller --dt",
+         {:e}, [checks] energy_balance_rel_tol): kinetic {ke:.6e} J + elastic {:.6e} J \
+         against cable work {:.6e} J + gravity work {:.6e} J - damping {:.6e} J - latches \
+         {:.6e} J (motor {:.6e} J, friction {:.6e} J); the computed motion is not the one \
+         of the model's forces, try a smaller --dt",
         checks.energy_balance_rel_tol,
+        e.latch_spring_energy_j + e.element_spring_energy_j,
         e.cable_work_j,
         e.gravity_work_j,
         e.damping_loss_j,
-        e.lock_loss_j,
+        e.lock_loss_j + e.latch_damping_loss_j,
         e.motor_work_j,
         e.friction_loss_j
     ))

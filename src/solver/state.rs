@@ -45,7 +45,8 @@ pub struct LatchTransient {
     pub sign: f64,
     /// The window over which it is checked for settling (s): its own
     /// period 2 pi / sqrt(k w), w = `inv_mass_eff_per_kg`; on a structure
-    /// with one mechanism (rigid rows), the period of the one mode its
+    /// with one mechanism (rigid rows, by an SVD at engagement; no compliant
+    /// element), the period of the one mode its
     /// engaged latches make together, 2 pi / sqrt(sum_i k_i w_i) (exact
     /// there: with one mechanism n, w_i = (A_i n)^2 / n^T M n).
     pub period_s: f64,

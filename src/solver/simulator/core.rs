@@ -64,8 +64,10 @@ pub(super) struct Core {
     /// Compliant latches reached while others engage, along which the
     /// structure cannot move (inverse effective mass 0: e.g. the ring's
     /// radial sleeves, shortest at the flat state): (element, instant it
-    /// reached its lock, s). They latch rigid once the transients are over.
-    pub waiting: Vec<(usize, f64)>,
+    /// reached its lock, s; the side of its lock it came from, the sign of
+    /// its gap at the sub-step's start, 0 if unknown). They latch rigid once
+    /// the transients are over; one found past its lock is a missed latch.
+    pub waiting: Vec<(usize, f64, f64)>,
     /// The compliant elements' buffers.
     pub element_springs: super::springs::ElementSprings,
     /// What the stepping loop did (the aux solver's work is not counted).

@@ -69,13 +69,26 @@ impl Simulator {
             return Ok(0);
         }
         let t = self.state.t_s;
-        let (springy, mut rigid): (Vec<usize>, Vec<usize>) = newly
+        let (springy, rigid): (Vec<usize>, Vec<usize>) = newly
             .iter()
             .partition(|&&e| model.elements[e].latch_spring().is_some());
+        // rigid latches first: the springs engage on the structure they make
+        if !rigid.is_empty() {
+            self.latch_rigid(&rigid, &|_| t)?;
+        }
+        if springy.is_empty() {
+            return Ok(newly.len());
+        }
         let mut immobile = Vec::new();
         for &e in &springy {
             if !self.engage(e)? {
                 immobile.push(e);
+            }
+        }
+        if self.one_spring_mode() {
+            let one_mode_s = self.spring_mode_period_s();
+            for tr in &mut self.state.transients {
+                tr.period_s = one_mode_s;
             }
         }
         // A compliant latch the structure cannot move along waits for the
@@ -83,16 +96,19 @@ impl Simulator {
         // theirs meanwhile); with none engaging it latches rigid now.
         if self.state.transients.is_empty() {
             self.core.stats.fallbacks.latch_without_compliance += immobile.len() as u64;
-            rigid.extend(immobile);
+            self.latch_rigid(&immobile, &|_| t)?;
         } else {
-            self.core.waiting.extend(immobile.iter().map(|&e| (e, t)));
-        }
-        if rigid.is_empty() {
+            // the side it came from: its gap at the sub-step's start (0:
+            // already at its lock there, unknown)
+            let tol = self.settings.latch_tol_m();
+            for &e in &immobile {
+                let g0 = gap(&self.model, e, &self.x_start);
+                let side = if g0.abs() > tol { g0.signum() } else { 0.0 };
+                self.core.waiting.push((e, t, side));
+            }
             // the dampers' force jumps in: accelerations from there
             self.core.prev_h = None;
             self.restart_accelerations()?;
-        } else {
-            self.latch_rigid(&rigid, &|_| t)?;
         }
         Ok(newly.len())
     }
@@ -131,11 +147,20 @@ impl Simulator {
         }
         let waiting = std::mem::take(&mut self.core.waiting);
         let tol = self.settings.latch_tol_m();
-        let at_lock: Vec<usize> = waiting
-            .iter()
-            .map(|w| w.0)
-            .filter(|&e| gap(&self.model, e, &self.state.x).abs() <= tol)
-            .collect();
+        let mut at_lock = Vec::new();
+        for &(e, _, side) in &waiting {
+            let g = gap(&self.model, e, &self.state.x);
+            if g.abs() <= tol {
+                at_lock.push(e);
+            } else if g * side < 0.0 {
+                // it went past its lock while it waited
+                return Err(SolverError::MissedLatch {
+                    element: self.model.elements[e].name().to_string(),
+                    t_s: self.state.t_s,
+                    gap_m: g,
+                });
+            }
+        }
         if at_lock.is_empty() {
             return Ok(0);
         }
@@ -226,12 +251,6 @@ impl Simulator {
             dissipated_j: 0.0,
         });
         self.core.springs.push((e, k, c));
-        if self.state.mechanisms == 1 {
-            let one_mode_s = self.spring_mode_period_s();
-            for tr in &mut self.state.transients {
-                tr.period_s = one_mode_s;
-            }
-        }
         self.core.stats.latches += 1;
         self.core.stats.compliant_latches += 1;
         Ok(true)
@@ -256,6 +275,19 @@ impl Simulator {
             self.settings.latch_steps_per_period
         };
         self.spring_mode_period_s() / per_period
+    }
+
+    /// Whether the engaged latches make one mode, of period 2 pi / sqrt(sum
+    /// k_i w_i): the rigid rows leave exactly one mechanism n (an SVD at the
+    /// state, up to `rank_check_max_coords`; the count kept in the state may
+    /// be a bound) and no compliant element adds stiffness along n.
+    fn one_spring_mode(&mut self) -> bool {
+        let n = self.model.n_coords();
+        if !self.core.element_springs.is_empty() || n > self.settings.rank_check_max_coords {
+            return false;
+        }
+        self.core.jac.fill(&self.model, &self.state.x);
+        crate::solver::rank::of_jacobian(&self.core.jac) + 1 == n
     }
 
     /// 2 pi / sqrt(sum_i k_i w_i) over the engaged latches (s): the period
@@ -336,8 +368,11 @@ impl Simulator {
             ev.energy_lost_j = lost_j + lost;
             ev.rigid_at_s = Some(t);
         }
+        // (the waiting latches' events first: they may have reached their
+        // lock after the last engagement)
+        let waited = self.latch_waiting()?;
         self.stamp_deploy_time();
-        Ok(due.len() + self.latch_waiting()?)
+        Ok(due.len() + waited)
     }
 
     /// Makes `elements` rigid members (locked) at the current state: the

@@ -51,6 +51,10 @@ impl ElementSprings {
         ElementSprings { work }
     }
 
+    pub fn is_empty(&self) -> bool {
+        self.work.is_empty()
+    }
+
     /// Phi and A Xdot of every compliant element at (x, v); the previous
     /// values move to `*_before`.
     fn eval(&mut self, model: &Model, x: &[f64], v: &[f64]) {
