@@ -75,8 +75,10 @@ pub fn offline(path: &std::path::Path, a: &ControllerArgs) -> Result<Vec<Offline
     check(a)?;
     let mut out = Vec::new();
     for eased in [false, true] {
-        let m = crate::model::load(path).map_err(|e| e.to_string())?.model;
-        let mut sim = Simulator::new(m, Options::default()).map_err(|e| e.to_string())?;
+        let loaded = crate::model::load(path).map_err(|e| e.to_string())?;
+        let checks = loaded.checks;
+        let mut sim =
+            Simulator::new(loaded.model, Options::default()).map_err(|e| e.to_string())?;
         let base: Vec<f64> = sim
             .model()
             .cables
@@ -101,15 +103,20 @@ pub fn offline(path: &std::path::Path, a: &ControllerArgs) -> Result<Vec<Offline
             sim.step(dt).map_err(|e| e.to_string())?;
         }
         let s = sim.state();
+        // a truss rigid short of its reference jammed: no deploy time
+        let deployed =
+            s.deployed && crate::solver::checks::jammed(sim.model(), s, &checks).is_none();
         out.push(OfflineRun {
             law: if eased {
                 format!("eased from {} to {}x", a.ease_from, a.floor)
             } else {
                 "constant".into()
             },
-            deploy_time_s: s
-                .deploy_time_s
-                .or(if s.deployed { Some(s.t_s) } else { None }),
+            deploy_time_s: if deployed {
+                s.deploy_time_s.or(Some(s.t_s))
+            } else {
+                None
+            },
             max_impulse_ns: s
                 .locks
                 .iter()
