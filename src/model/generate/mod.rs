@@ -32,21 +32,17 @@ pub struct LatchParams {
     pub damping_n_s_per_m: f64,
 }
 
-/// A sleeve's parameters: its lock length and, with `latch`, a compliant
-/// latch (checked).
-pub fn sleeve_lock(
-    latch: Option<&LatchParams>,
-    lock_length_m: f64,
-) -> Result<Vec<(String, Param)>, String> {
-    let spring = match latch {
-        Some(l) => l.sleeve_params()?,
-        None => vec![],
-    };
-    Ok([
-        vec![("lock_length_m".into(), Param::Num(lock_length_m))],
-        spring,
-    ]
-    .concat())
+/// The parameters of a sleeve latching at `lock_length_m`, with the checked
+/// compliant-latch parameters `spring` (`LatchParams::sleeve_params`, or none).
+pub fn sleeve_lock(spring: &[(String, Param)], lock_length_m: f64) -> Vec<(String, Param)> {
+    let mut params = vec![("lock_length_m".to_string(), Param::Num(lock_length_m))];
+    params.extend_from_slice(spring);
+    params
+}
+
+/// The sleeves' compliant-latch parameters of a generator's `latch` (checked).
+pub fn latch_params(latch: Option<&LatchParams>) -> Result<Vec<(String, Param)>, String> {
+    latch.map_or(Ok(Vec::new()), LatchParams::sleeve_params)
 }
 
 /// The model note of compliant latches.
@@ -154,7 +150,7 @@ pub fn mast(p: &MastParams) -> Result<ModelDoc, String> {
             p.units
         ));
     }
-    sleeve_lock(p.latch.as_ref(), 1.0)?;
+    let spring = latch_params(p.latch.as_ref())?;
     let positive = [p.rod_length_m, p.joint_mass_kg, p.dt_s];
     if positive.iter().any(|v| !(v.is_finite() && *v > 0.0)) {
         return Err("rod length, joint mass and dt must be positive and finite".into());
@@ -215,7 +211,7 @@ pub fn mast(p: &MastParams) -> Result<ModelDoc, String> {
             kind: "sleeve".into(),
             name: format!("S{}", u + 1),
             joints: vec![format!("L{u}"), format!("L{}", u + 1)],
-            params: sleeve_lock(p.latch.as_ref(), lock_len)?,
+            params: sleeve_lock(&spring, lock_len),
         });
     }
     Ok(ModelDoc {

@@ -319,8 +319,8 @@ fn synchronized_ring(p: &RingParams) -> Result<ModelDoc, String> {
             params,
         };
     let j = |ring: &str, k: usize, end: &str| format!("{ring}{}_{end}", k % n);
-    super::sleeve_lock(p.latch.as_ref(), 1.0)?;
-    let lock = |l: f64| super::sleeve_lock(p.latch.as_ref(), l).expect("latch checked");
+    let spring = super::latch_params(p.latch.as_ref())?;
+    let lock = |l: f64| super::sleeve_lock(&spring, l);
     let mut elements = Vec::new();
     let fix = fix_joint;
     // The inner ring is held concentric with the outer ring (the radial tie system):

@@ -202,8 +202,8 @@ pub fn stowing_ring(p: &RingParams) -> Result<ModelDoc, String> {
     } else {
         elements.extend(hub_mount(n));
     }
-    super::sleeve_lock(p.latch.as_ref(), 1.0)?;
-    let lock = |l: f64| super::sleeve_lock(p.latch.as_ref(), l).expect("latch checked");
+    let spring = super::latch_params(p.latch.as_ref())?;
+    let lock = |l: f64| super::sleeve_lock(&spring, l);
     for k in 0..n {
         for ring in ["O", "I"] {
             elements.push(el(

@@ -95,6 +95,29 @@ impl ElementSpec {
             other => Ok(other),
         }
     }
+    /// A spring-damper given by a stiffness key (N/m, > 0) and an optional
+    /// damping key (N s/m, >= 0, default 0); None when neither is given.
+    /// `what` names it in the error (a damping without a stiffness).
+    pub fn spring_damper(
+        &self,
+        k_key: &str,
+        c_key: &str,
+        what: &str,
+    ) -> Result<Option<(f64, f64)>, String> {
+        match (self.num(k_key)?, self.num(c_key)?) {
+            (None, None) => Ok(None),
+            (None, Some(_)) => Err(format!("`{c_key}` needs `{k_key}` ({what})")),
+            (Some(k), c) => {
+                let c = c.unwrap_or(0.0);
+                if k <= 0.0 || c < 0.0 {
+                    return Err(format!(
+                        "`{k_key}` = {k} must be > 0 and `{c_key}` = {c} >= 0"
+                    ));
+                }
+                Ok(Some((k, c)))
+            }
+        }
+    }
     pub fn expect_joints(&self, n: usize, roles: &str) -> Result<(), String> {
         if self.joints.len() != n {
             return Err(format!(

@@ -57,27 +57,11 @@ pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, Stri
     if lock <= 1e-9 {
         return Err(format!("`lock_length_m` = {lock} must be positive"));
     }
-    let latch_spring = match (
-        spec.num("latch_stiffness_n_per_m")?,
-        spec.num("latch_damping_n_s_per_m")?,
-    ) {
-        (None, None) => None,
-        (None, Some(_)) => {
-            return Err(
-                "`latch_damping_n_s_per_m` needs `latch_stiffness_n_per_m` (a compliant latch)"
-                    .into(),
-            )
-        }
-        (Some(k), c) => {
-            let c = c.unwrap_or(0.0);
-            if k <= 0.0 || c < 0.0 {
-                return Err(format!(
-                    "`latch_stiffness_n_per_m` = {k} must be > 0 and `latch_damping_n_s_per_m` = {c} >= 0"
-                ));
-            }
-            Some((k, c))
-        }
-    };
+    let latch_spring = spec.spring_damper(
+        "latch_stiffness_n_per_m",
+        "latch_damping_n_s_per_m",
+        "a compliant latch",
+    )?;
     Ok(Box::new(Sleeve {
         axial_stiffness_n: spec.axial_stiffness()?,
         latch_spring,

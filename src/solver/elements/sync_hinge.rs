@@ -27,24 +27,7 @@ pub struct SyncHinge {
 pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, String> {
     spec.expect_joints(5, "hinge p, post end q, radial end r, member ends a and b")?;
     spec.only_params(&["mirror", "stiffness_n_per_m", "damping_n_s_per_m"])?;
-    let spring = match (
-        spec.num("stiffness_n_per_m")?,
-        spec.num("damping_n_s_per_m")?,
-    ) {
-        (None, None) => None,
-        (None, Some(_)) => {
-            return Err("`damping_n_s_per_m` needs `stiffness_n_per_m` (compliant gears)".into())
-        }
-        (Some(k), c) => {
-            let c = c.unwrap_or(0.0);
-            if !(k > 0.0 && c >= 0.0) {
-                return Err(format!(
-                    "`stiffness_n_per_m` = {k} must be > 0 and `damping_n_s_per_m` = {c} >= 0"
-                ));
-            }
-            Some((k, c))
-        }
-    };
+    let spring = spec.spring_damper("stiffness_n_per_m", "damping_n_s_per_m", "compliant gears")?;
     let j = [
         spec.joints[0],
         spec.joints[1],
