@@ -120,6 +120,14 @@ pub struct SolverSettings {
     /// Golden-section and bisection iterations on the step's interpolant
     /// (each shrinks the interval by 0.618 or 0.5).
     pub dip_search_iterations: usize,
+    /// Capture (a counted fallback): where a sub-step fails (its Newmark
+    /// iteration at the shortest sub-step, or a latch search), unlatched
+    /// sleeves closing on their lock from within this distance latch where
+    /// they stand, and the sub-step is retried (m). Real latches capture
+    /// from millimetres; near the ring's flat deployed state the last
+    /// sleeves reach their locks within microseconds of each other, where
+    /// the structure's rows are nearly redundant.
+    pub latch_capture_m: f64,
 
     // --- compliant latches (stages `impact` and `ledger`) ---
     /// Steps per latch period until an engaged compliant latch's force has
@@ -145,10 +153,6 @@ pub struct SolverSettings {
     /// radial sleeves at the flat state, where w is roundoff: ~1e-15) has
     /// no transient: it latches rigid, after the others' transients.
     pub latch_immobile_rel: f64,
-    /// Compliant elements (`Constraint::spring`) enter the Newmark iteration
-    /// explicitly: a sub-step is at most as long as keeps the iteration map's
-    /// gain on each spring row, (h^2/4) k w + (h/2) c w, at this (< 1).
-    pub spring_step_gain: f64,
 
     // --- mobility (the rank decision itself is `crate::solver::rank`) ---
     /// Largest model (coordinates) whose mobility is counted by a dense SVD
@@ -191,12 +195,12 @@ impl Default for SolverSettings {
             root_max_iterations: 100,
             root_bracket_rel: 1e-15,
             dip_search_iterations: 60,
+            latch_capture_m: 1e-5,
             latch_steps_per_period: 128.0,
             latch_settle_steps_per_period: 40.0,
             latch_settle_rel: 1e-3,
             latch_max_periods: 50.0,
             latch_immobile_rel: 1e-9,
-            spring_step_gain: 0.25,
             rank_check_max_coords: 1500,
         }
     }
@@ -252,7 +256,7 @@ impl SolverSettings {
             ("latch_settle_rel", self.latch_settle_rel),
             ("latch_max_periods", self.latch_max_periods),
             ("latch_immobile_rel", self.latch_immobile_rel),
-            ("spring_step_gain", self.spring_step_gain),
+            ("latch_capture_m", self.latch_capture_m),
         ];
         for (key, v) in positive {
             if !(v.is_finite() && v > 0.0) {
@@ -277,7 +281,6 @@ impl SolverSettings {
             ("newmark_newton_curvature", self.newmark_newton_curvature),
             ("min_substep_fraction", self.min_substep_fraction),
             ("step_end_rel", self.step_end_rel),
-            ("spring_step_gain", self.spring_step_gain),
         ] {
             if v >= 1.0 {
                 return Err(format!("[solver] {key} = {v}: it must be below 1"));

@@ -86,6 +86,12 @@ pub struct Fallbacks {
     /// A latch root search reached its iteration limit with the gap within
     /// the latch tolerance (beyond it, the search is an error).
     pub root_search_limit: u64,
+    /// A latch search's trial step whose least-squares iteration did not
+    /// converge was redone with basic solves.
+    pub latch_search_basic: u64,
+    /// A sleeve closing on its lock from within `latch_capture_m` latched
+    /// where it stood after a failed sub-step (see `SolverSettings`).
+    pub latch_captured: u64,
     /// The accelerations' fixed point with cable inertia stopped at its iteration limit.
     pub consistent_unconverged: u64,
     /// A compliant latch turned rigid at `latch_max_periods` without having
@@ -111,7 +117,8 @@ impl SolverStats {
              {} latch searches ({} trial steps), {} latches; fallbacks: {} halvings ({} at blend entries), \
              {} Newton switches ({} failed), {} Newmark min-norm, {} lagged friction, {} projection min-norm, {} velocity min-norm, \
              {} refactored, {} re-probed, {} least-squares, {} unconverged solves, \
-             {} dips rejected ({} checks failed), {} root searches at their limit, \
+             {} dips rejected ({} checks failed), {} root searches at their limit ({} search steps redone with basic solves), \
+             {} latches captured after a failed sub-step, \
              {} inertia fixed points unconverged, {} latches unsettled at their limit, \
              {} compliant latches with no compliance",
             self.steps,
@@ -144,6 +151,8 @@ impl SolverStats {
             f.dips_rejected,
             f.dip_checks_failed,
             f.root_search_limit,
+            f.latch_search_basic,
+            f.latch_captured,
             f.consistent_unconverged,
             f.latch_unsettled,
             f.latch_without_compliance,

@@ -223,14 +223,14 @@ impl Simulator {
         let (mut a, mut ga) = (0.0, g0);
         let mut gb = gap(&self.model, target, &self.core.x);
         let mut side = 0i32;
-        for _ in 0..st.root_max_iterations {
+        for _ in 0..self.settings.root_max_iterations {
             // Illinois step (regula falsi with halving of the stale end)
             let mut m = (a * gb - b * ga) / (gb - ga);
             if !(m > a && m < b) {
                 m = 0.5 * (a + b);
             }
-            self.core.stats.latch_search_steps += 1;
-            self.core.newmark(&self.model, &self.state, m, st, mode)?;
+            self.search_step(m)?;
+            let st = &self.settings;
             let gm = gap(&self.model, target, &self.core.x);
             // did another element already cross before m?
             if let Some(other) = self.crossed_by(target) {
@@ -264,8 +264,8 @@ impl Simulator {
         // Iteration limit: the far end of the bracket is accepted when the
         // latch will take it (within the latch tolerance; a counted
         // fallback), else the search has failed.
-        self.core.stats.latch_search_steps += 1;
-        self.core.newmark(&self.model, &self.state, b, st, mode)?;
+        self.search_step(b)?;
+        let st = &self.settings;
         let gb = gap(&self.model, target, &self.core.x);
         if gb.abs() <= st.latch_tol_m() {
             self.core.stats.fallbacks.root_search_limit += 1;
@@ -277,6 +277,64 @@ impl Simulator {
             gap_m: gb,
             iterations: st.root_max_iterations,
         })
+    }
+
+    /// One trial step of length h of a latch search, in least squares (the
+    /// trials lie just short of a latch); where that iteration does not
+    /// converge, once more with basic solves (a counted fallback: near a
+    /// latch whose rows are nearly redundant with others, the least-squares
+    /// map can stall where the basic one, which drops them, contracts).
+    fn search_step(&mut self, h: f64) -> Result<(), SolverError> {
+        let st = &self.settings;
+        self.core.stats.latch_search_steps += 1;
+        match self.core.newmark(&self.model, &self.state, h, st, SolveMode::MinNorm) {
+            Err(SolverError::NoConvergence { .. }) => {
+                self.core.stats.fallbacks.latch_search_basic += 1;
+                self.core.stats.latch_search_steps += 1;
+                self.core
+                    .newmark(&self.model, &self.state, h, st, SolveMode::Basic)
+            }
+            other => other,
+        }
+    }
+
+    /// Capture after a failed sub-step (`error`: a Newmark iteration that did
+    /// not converge at the shortest sub-step, or a latch search that failed):
+    /// the unlatched sleeves closing on their lock from within
+    /// `latch_capture_m` at the sub-step's start latch there (rigid, their
+    /// impulse and the projection's work booked as at any latch; counted as
+    /// `latch_captured`), and the number latched is returned for the
+    /// sub-step to be retried. With none to capture, the error stands.
+    pub(super) fn capture_or(&mut self, error: SolverError) -> Result<usize, SolverError> {
+        if !matches!(
+            error,
+            SolverError::NoConvergence { .. } | SolverError::LatchSearch { .. }
+        ) {
+            return Err(error);
+        }
+        let (model, s, capture) = (&self.model, &self.state, self.settings.latch_capture_m);
+        let closing: Vec<usize> = model
+            .locks
+            .iter()
+            .copied()
+            .filter(|&e| !s.locked[e] && !self.engaged(e))
+            // (a compliant latch's transient is its answer: not captured)
+            .filter(|&e| model.elements[e].latch_spring().is_none())
+            .filter(|&e| {
+                model.elements[e]
+                    .lock_condition(&s.x, &s.v)
+                    .is_some_and(|c| c.gap_m.abs() <= capture && c.gap_m * c.rate_m_s < 0.0)
+            })
+            .collect();
+        if closing.is_empty() {
+            return Err(error);
+        }
+        self.core.stats.fallbacks.latch_captured += closing.len() as u64;
+        self.x_start.copy_from_slice(&self.state.x);
+        let t = self.state.t_s;
+        self.latch_rigid(&closing, &|_| t)?;
+        self.check_nothing_missed()?;
+        Ok(closing.len())
     }
 
     /// Another unlocked element whose gap has changed sign (beyond the latch

@@ -115,7 +115,7 @@ impl Simulator {
 
     /// Latches `elements` rigid at the state and records their events, each
     /// at the instant `reached_s` gives it (when it reached its lock).
-    fn latch_rigid(
+    pub(super) fn latch_rigid(
         &mut self,
         elements: &[usize],
         reached_s: &dyn Fn(usize) -> f64,

@@ -289,7 +289,7 @@ impl Core {
             if (rho >= st.newmark_newton_trigger || self.newton_last)
                 && !self.lagged_friction
                 && !tried_newton
-                && self.friction_blend_active(model)
+                && (self.friction_blend_active(model) || !self.element_springs.is_empty())
             {
                 newton = true;
                 tried_newton = true;

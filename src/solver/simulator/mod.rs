@@ -299,12 +299,7 @@ impl Simulator {
             }
             let h = h_try
                 .min(t_end - self.state.t_s)
-                .min(self.transient_step_s())
-                .min(self.core.element_springs.max_step_s(
-                    &self.model,
-                    &self.state.x,
-                    self.settings.spring_step_gain,
-                ));
+                .min(self.transient_step_s());
             let (st, base) = (&self.settings, SolveMode::Basic);
             match self.core.newmark(&self.model, &self.state, h, st, base) {
                 Err(SolverError::NoConvergence { .. }) if h > dt * st.min_substep_fraction => {
@@ -312,7 +307,11 @@ impl Simulator {
                     h_try = 0.5 * h;
                     continue;
                 }
-                other => other?,
+                Err(e) => {
+                    events += self.capture_or(e)?;
+                    continue;
+                }
+                Ok(()) => {}
             }
             let st = &self.settings;
             if self.core.blend_entry && h > dt * st.min_substep_fraction {
@@ -320,7 +319,13 @@ impl Simulator {
                 h_try = 0.5 * h;
                 continue;
             }
-            events += self.finish_substep(h)?;
+            events += match self.finish_substep(h) {
+                Ok(n) => n,
+                Err(e) => {
+                    events += self.capture_or(e)?;
+                    continue;
+                }
+            };
             h_try = (2.0 * h_try).min(dt);
         }
         self.state.t_s = t_end.max(self.state.t_s);

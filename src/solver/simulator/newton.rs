@@ -281,6 +281,8 @@ impl Core {
         for (ci, c) in model.cables.iter().enumerate() {
             cable::add_friction_derivative(c, &self.cables[ci], &self.x, &nw.dv, &mut nw.dq);
         }
+        self.element_springs
+            .add_force_derivative(model, h, x, &mut nw.dq);
         w.copy_from_slice(x);
         if nw.dq.iter().all(|v| *v == 0.0) {
             return Ok(());

@@ -2,7 +2,9 @@
 //! by a spring-damper instead of being imposed. On its residual Phi (m) and
 //! rate A Xdot it applies the force
 //!     Q = -A^T (k Phi + c A Xdot)
-//! (stage `integrator`, with the cables and damping), stores the elastic
+//! (stage `integrator`, with the cables and damping; implicit in the
+//! Newmark step, whose iteration takes their stiffness into its Newton
+//! steps, stage `newton`), stores the elastic
 //! energy 1/2 k |Phi|^2 and dissipates c |A Xdot|^2 (stage `ledger`). The
 //! buffers are made once, with the model.
 
@@ -77,40 +79,6 @@ impl ElementSprings {
         }
     }
 
-    /// Longest step over which the Newmark fixed-point iteration contracts
-    /// on the springs, which it takes explicitly (s): per row, with w = sum
-    /// A_j^2 / m_j the row's inverse mass (of the free joints, a bound on the
-    /// constrained one), the iteration map's gain (h^2/4) k w + (h/2) c w is
-    /// held at `gain` (< 1). Infinite without compliant elements.
-    pub fn max_step_s(&mut self, model: &Model, x: &[f64], gain: f64) -> f64 {
-        let mut h_max = f64::INFINITY;
-        for w in &mut self.work {
-            let el = &model.elements[w.element];
-            el.jacobian(x, &mut w.jac);
-            let joints = el.joints();
-            let width = 3 * joints.len();
-            let (k, c) = (w.spring.stiffness_n_per_m, w.spring.damping_n_s_per_m);
-            for r in 0..w.spring.rows {
-                let inv_mass: f64 = w.jac[r * width..(r + 1) * width]
-                    .iter()
-                    .enumerate()
-                    .map(|(col, a)| a * a * model.inv_mass[3 * joints[col / 3] + col % 3])
-                    .sum();
-                // (k w / 4) h^2 + (c w / 2) h - gain = 0, its positive root
-                let (qa, qb) = (0.25 * k * inv_mass, 0.5 * c * inv_mass);
-                let h = if qa > 0.0 {
-                    (-qb + (qb * qb + 4.0 * qa * gain).sqrt()) / (2.0 * qa)
-                } else if qb > 0.0 {
-                    gain / qb
-                } else {
-                    f64::INFINITY
-                };
-                h_max = h_max.min(h);
-            }
-        }
-        h_max
-    }
-
     /// Adds the springs' forces -A^T (k Phi + c A Xdot) at (x, v) to `q`.
     pub fn add_forces(&mut self, model: &Model, x: &[f64], v: &[f64], q: &mut [f64]) {
         self.eval(model, x, v);
@@ -122,6 +90,32 @@ impl ElementSprings {
                 let f = k * phi + c * rate;
                 for (col, a) in w.jac[r * width..(r + 1) * width].iter().enumerate() {
                     q[3 * joints[col / 3] + col % 3] -= f * a;
+                }
+            }
+        }
+    }
+
+    /// Adds the springs' force change along a change dA of the Newmark
+    /// iterate's accelerations to `dq`: with dX = h^2/4 dA and dV = h/2 dA,
+    ///     dQ = -A^T (k A dX + c A dV) = -(k h^2/4 + c h/2) A^T A dA,
+    /// at the Jacobian of the last force evaluation (the geometric term
+    /// (dA^T/dX) (k Phi + c A Xdot) is left out: this is the Newton
+    /// direction's derivative, whose residual is exact).
+    pub fn add_force_derivative(&self, model: &Model, h: f64, da: &[f64], dq: &mut [f64]) {
+        for w in &self.work {
+            let joints = model.elements[w.element].joints();
+            let width = 3 * joints.len();
+            let (k, c) = (w.spring.stiffness_n_per_m, w.spring.damping_n_s_per_m);
+            let gain = 0.25 * h * h * k + 0.5 * h * c;
+            for r in 0..w.spring.rows {
+                let row = &w.jac[r * width..(r + 1) * width];
+                let rate: f64 = row
+                    .iter()
+                    .enumerate()
+                    .map(|(col, a)| a * da[3 * joints[col / 3] + col % 3])
+                    .sum();
+                for (col, a) in row.iter().enumerate() {
+                    dq[3 * joints[col / 3] + col % 3] -= gain * rate * a;
                 }
             }
         }
