@@ -457,7 +457,7 @@ fn negative_dt_message_names_the_option() {
     assert_input_error(&o, "--dt -1", &["--dt", "positive"], true);
 }
 
-/// `generate --start-deg` starts a model part-way: a ring generated 1 deg from
+/// `generate --start-deg` starts a model part-way: a synchronized ring generated 1 deg from
 /// flat deploys in a fraction of a second with all 90 sleeves latching (the
 /// quick way to study the latch); angles out of range, and a deploy angle for
 /// the ring (which latches flat), are input errors that write nothing.
@@ -468,6 +468,7 @@ fn generate_start_angle_sets_where_the_deployment_starts() {
     let o = run(&[
         "generate".as_ref(),
         "ring".as_ref(),
+        "--sync".as_ref(),
         "--start-deg".as_ref(),
         "1".as_ref(),
         "-o".as_ref(),

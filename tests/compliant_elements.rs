@@ -115,7 +115,10 @@ fn a_stiff_compliant_gear_steps_implicitly_without_cut_or_halving() {
     );
     assert_eq!(st.substeps, 8, "the steps were cut");
     assert_eq!(st.fallbacks.substep_halvings, 0);
-    assert!(st.newton_steps > 0, "the plain iteration cannot contract here");
+    assert!(
+        st.newton_steps > 0,
+        "the plain iteration cannot contract here"
+    );
     assert!(worst <= 1e-9 * z0, "off the recurrence by {worst}");
     assert!(balance <= 1e-9, "balance {balance}");
 }

@@ -47,13 +47,23 @@ fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
 }
 
 #[test]
-fn bundled_model_is_what_generate_writes() {
-    let text = std::fs::read_to_string(
-        Path::new(env!("CARGO_MANIFEST_DIR")).join("models/double_ring.toml"),
-    )
-    .unwrap();
-    // the bundled ring states its compliant latches (README, Bundled models:
-    // `generate ring --latch-stiffness 2e5 --latch-damping 300`)
+fn bundled_models_are_what_generate_writes() {
+    let read = |name: &str| {
+        std::fs::read_to_string(
+            Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("models")
+                .join(name),
+        )
+        .unwrap()
+    };
+    // `generate ring`: the bay-by-bay ring
+    assert_eq!(
+        read("double_ring.toml"),
+        ring(&RingParams::bay_by_bay()).unwrap().to_toml()
+    );
+    let text = read("double_ring_synchronized.toml");
+    // the synchronized ring states its compliant latches (README, Bundled
+    // models: `generate ring --sync --latch-stiffness 2e5 --latch-damping 300`)
     let bundled = RingParams {
         latch: Some(truss_deploy::model::generate::LatchParams {
             stiffness_n_per_m: 2e5,
@@ -226,11 +236,17 @@ fn frame_mounted_ring_also_deploys_to_its_reference() {
 }
 
 #[test]
-fn bundled_ring_loads() {
-    let m = load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("models/double_ring.toml"))
+fn bundled_rings_load() {
+    for name in ["double_ring.toml", "double_ring_synchronized.toml"] {
+        let m = load(
+            &Path::new(env!("CARGO_MANIFEST_DIR"))
+                .join("models")
+                .join(name),
+        )
         .unwrap()
         .model;
-    assert_eq!(m.n_joints(), 72);
+        assert_eq!(m.n_joints(), 72, "{name}");
+    }
 }
 
 #[test]

@@ -494,9 +494,10 @@ fn parallel_compliant_latches_share_by_stiffness() {
 ///   damper's force at contact, c ldot_i).
 #[test]
 fn the_rings_compliant_latches_peak_in_proportion_to_their_closing_speeds() {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("models/double_ring.toml");
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("models/double_ring_synchronized.toml");
     let text = std::fs::read_to_string(&path).unwrap();
-    let model = parse(&text, "double_ring.toml").unwrap().model;
+    let model = parse(&text, "double_ring_synchronized.toml").unwrap().model;
     let mut sim = Simulator::new(model, Options::default()).unwrap();
     run_until_settled(&mut sim, 0.05, 800);
     let s = sim.state();

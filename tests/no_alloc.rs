@@ -80,7 +80,7 @@ fn plain_and_transient_steps_do_not_allocate() {
     );
     // Compliant elements (the bundled ring with compliant gears) reuse their
     // buffers for their forces and their energy.
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("models/double_ring.toml");
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("models/double_ring_synchronized.toml");
     let text = std::fs::read_to_string(path).unwrap().replace(
         "type = \"sync_hinge\"\n",
         "type = \"sync_hinge\"\nstiffness_n_per_m = 100.0\ndamping_n_s_per_m = 5.0\n",

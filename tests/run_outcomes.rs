@@ -501,12 +501,12 @@ fn mutated_bundled_models_never_panic_or_hang() {
     );
 }
 
-/// Simulates the bundled double ring with its inner cable rerouted through
+/// Simulates the bundled synchronized double ring with its inner cable rerouted through
 /// the far side (I5_t -> I14_b) `--until` the given time, in a temporary
 /// directory named after `tag`; the run must exit 0. Returns its JSON summary.
 fn run_rerouted_ring(tag: &str, until: &str) -> serde_json::Value {
     let d = temp_dir(tag);
-    let ring = std::fs::read_to_string(model("double_ring.toml")).unwrap();
+    let ring = std::fs::read_to_string(model("double_ring_synchronized.toml")).unwrap();
     let from = "\"I4_b\", \"I5_t\", \"I6_b\"";
     assert_eq!(ring.matches(from).count(), 1, "the inner cable path");
     let m = d.join("rerouted.toml");

@@ -78,15 +78,22 @@ struct GenerateArgs {
     /// ring: number of sides (6 to 360).
     #[arg(long, default_value_t = generate::ring::RingParams::default().sides)]
     sides: usize,
-    /// ring: the synchronized ring (square frames, one mechanism, part-folded start; the
-    /// default); the value names its gears: both (the default), axial, radial or none.
+    /// ring: the synchronized ring instead (square frames, one mechanism, part-folded
+    /// start, every sleeve at one instant); the value names its gears: both (the
+    /// default), axial, radial or none.
     #[arg(long, num_args = 0..=1, default_missing_value = "both", conflicts_with = "stow")]
     sync: Option<String>,
-    /// ring: the stowing ring instead (parallelogram bays and radial frames that shear
-    /// to a bundle, no gears, held at post O0; experimental: it deploys to full lock but
+    /// ring: the one-mechanism stowing ring instead (parallelogram bays and square radial
+    /// frames that shear to a bundle, no gears, held at post O0; it deploys to full lock
     /// as one mechanism, every sleeve at one instant; see docs/double_ring_stowing.md).
     #[arg(long)]
     stow: bool,
+    /// ring: the bay-by-bay ring (the default): stowed to a bundle, its inner ring raised
+    /// on sheared radial frames, ball-jointed inner chords, every diagonal latching and
+    /// compliant gears at the outer posts; many mechanisms, the frames and then the bays
+    /// latch in turn, held at post O0 (see docs/double_ring_stowing.md).
+    #[arg(long, conflicts_with_all = ["sync", "stow"])]
+    bay_by_bay: bool,
     /// ring: how the ring is held: `hub` (at its centre; the synchronized ring's
     /// default), `frame0` (synchronized ring, at post O0) or `post` (post O0 clamped to
     /// a boom; the stowing ring's default).
@@ -111,7 +118,7 @@ struct GenerateArgs {
     #[arg(long, allow_negative_numbers = true)]
     damping: Option<f64>,
     /// Angle at the start (deg): mast, rod angle from the horizontal (default 5); ring, tilt of
-    /// the outer bays' chords, 0 = deployed (default 35; 75 with --stow; e.g. 1 to study the latch); sail, rod
+    /// the outer bays' chords, 0 = deployed (default 75; 35 with --sync, e.g. 1 to study the latch); sail, rod
     /// angle from the vertical (default 1).
     #[arg(long, allow_negative_numbers = true)]
     start_deg: Option<f64>,
@@ -461,13 +468,15 @@ fn generate_cmd(a: GenerateArgs) -> Result<(), Failure> {
                      --start-deg sets where it starts",
                 ));
             }
-            let d = if a.stow {
-                generate::ring::RingParams::stowing()
-            } else {
+            let d = if let Some(sync) = &a.sync {
                 generate::ring::RingParams {
-                    sync: a.sync.clone().unwrap_or("both".into()),
+                    sync: sync.clone(),
                     ..generate::ring::RingParams::synchronized()
                 }
+            } else if a.stow {
+                generate::ring::RingParams::stowing()
+            } else {
+                generate::ring::RingParams::bay_by_bay()
             };
             let p = generate::ring::RingParams {
                 sides: a.sides,

@@ -68,6 +68,16 @@ pub struct RingParams {
     pub inner_hinges: bool,
     /// Compliant latches on every sleeve (rigid when None).
     pub latch: Option<super::LatchParams>,
+    /// Stowing ring: the bay-by-bay ring (`generate ring --bay-by-bay`, see
+    /// `ring_stowing`): the inner ring raised by radial frames deployed
+    /// sheared (`frame_shear_deg`), inner chords on ball joints, every
+    /// sleeve latching (outer and inner bays, radial frames), and compliant
+    /// gears (`gear`) at the outer posts: many mechanisms before the latches.
+    pub bay_by_bay: bool,
+    /// Bay-by-bay ring: shear of the radial frames when deployed (deg).
+    pub frame_shear_deg: f64,
+    /// Bay-by-bay ring: stiffness and damping of the outer posts' gears.
+    pub gear: super::LatchParams,
 }
 
 impl Default for RingParams {
@@ -91,6 +101,12 @@ impl Default for RingParams {
             synchronized: true,
             inner_hinges: true,
             latch: None,
+            bay_by_bay: false,
+            frame_shear_deg: 20.0,
+            gear: super::LatchParams {
+                stiffness_n_per_m: 100.0,
+                damping_n_s_per_m: 5.0,
+            },
         }
     }
 }
@@ -113,6 +129,14 @@ impl RingParams {
             mount: "post".into(),
             synchronized: false,
             ..RingParams::default()
+        }
+    }
+    /// The bay-by-bay ring (`generate ring --bay-by-bay`, see `ring_stowing`).
+    pub fn bay_by_bay() -> Self {
+        RingParams {
+            bay_by_bay: true,
+            inner_hinges: false,
+            ..RingParams::stowing()
         }
     }
 }

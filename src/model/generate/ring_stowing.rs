@@ -130,6 +130,95 @@ pub fn stowing_positions(p: &RingParams, phi: f64) -> Result<Vec<[f64; 3]>, Stri
     Ok(out)
 }
 
+/// Bay-by-bay ring: length of the radial battens, w = w0 / cos(theta_d) with
+/// w0 = (c_o - c_i) / (2 sin(pi/n)) the ring depth: each radial frame is
+/// deployed as a parallelogram sheared theta_d, its inner post w sin(theta_d)
+/// above the outer one at the plan depth w0.
+pub fn raised_batten_m(p: &RingParams) -> f64 {
+    ring_depth_m(p) / p.frame_shear_deg.to_radians().cos()
+}
+
+/// Bay-by-bay ring: length of inner chord k..k+1 minus c_i at outer chord
+/// tilt phi, with the even frames sheared te and the odd ones to (rad): the
+/// outer posts at r_o = c_o cos(phi) / (2 sin(pi/n)), even ones sunk by
+/// a = c_o sin(phi) / 2 and odd ones raised by it, and each inner post at
+/// r_o - w cos(t), w sin(t) above its outer post.
+fn raised_chord_error(p: &RingParams, phi: f64, te: f64, to: f64) -> f64 {
+    let n = p.sides as f64;
+    let (co, ci) = (p.outer_chord_m, p.inner_chord_m);
+    let w = raised_batten_m(p);
+    let a = 0.5 * co * phi.sin();
+    let r_o = co * phi.cos() / (2.0 * (PI / n).sin());
+    let (r_even, r_odd) = (r_o - w * te.cos(), r_o - w * to.cos());
+    let t = 2.0 * PI / n;
+    let (px, py) = (r_odd * t.cos() - r_even, r_odd * t.sin());
+    let dz = 2.0 * a + w * to.sin() - w * te.sin();
+    (px * px + py * py + dz * dz).sqrt() - ci
+}
+
+/// Bay-by-bay ring: the 2-periodic fold at outer chord tilt phi (rad), the
+/// frame shears (te, to) = (theta_d + x, theta_d - x) that keep every inner
+/// chord at c_i, continued from x = 0 at phi = 0 in 200 steps of phi (at
+/// each, the first sign change above the last x, then bisection).
+pub fn raised_fold(p: &RingParams, phi: f64) -> Result<(f64, f64), String> {
+    let thd = p.frame_shear_deg.to_radians();
+    if phi == 0.0 {
+        return Ok((thd, thd));
+    }
+    let mut x = 0.0f64;
+    let steps = 200;
+    for i in 1..=steps {
+        let ph = phi * i as f64 / steps as f64;
+        let f = |x: f64| raised_chord_error(p, ph, thd + x, thd - x);
+        let (mut lo, f_lo) = (x, f(x));
+        let mut dx = 1e-4;
+        let mut hi = lo + dx;
+        while (f(hi) > 0.0) == (f_lo > 0.0) {
+            dx *= 1.5;
+            hi = lo + dx;
+            if hi > PI {
+                return Err(format!(
+                    "the bay-by-bay ring does not fold to {:.1} deg (its radial frames reach their limit at {:.1} deg); use a smaller --start-deg",
+                    phi.to_degrees(),
+                    ph.to_degrees()
+                ));
+            }
+        }
+        for _ in 0..100 {
+            let mid = 0.5 * (lo + hi);
+            if (f(mid) > 0.0) == (f_lo > 0.0) {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        x = 0.5 * (lo + hi);
+    }
+    Ok((thd + x, thd - x))
+}
+
+/// Bay-by-bay ring: joint positions of the 2-periodic fold at outer chord
+/// tilt phi (rad), ring axis along z, in the order of `ring_joint_names`.
+pub fn raised_positions(p: &RingParams, phi: f64) -> Result<Vec<[f64; 3]>, String> {
+    let (te, to) = raised_fold(p, phi)?;
+    let n = p.sides;
+    let (h, w) = (p.height_m, raised_batten_m(p));
+    let a = 0.5 * p.outer_chord_m * phi.sin();
+    let r_o = p.outer_chord_m * phi.cos() / (2.0 * (PI / n as f64).sin());
+    let mut out = Vec::with_capacity(4 * n);
+    for k in 0..n {
+        let th = 2.0 * PI * k as f64 / n as f64;
+        let (c, s) = (th.cos(), th.sin());
+        let (z_o, t) = if k % 2 == 0 { (-a, te) } else { (a, to) };
+        let (r_i, z_i) = (r_o - w * t.cos(), z_o + w * t.sin());
+        out.push([r_o * c, r_o * s, z_o]);
+        out.push([r_o * c, r_o * s, z_o + h]);
+        out.push([r_i * c, r_i * s, z_i]);
+        out.push([r_i * c, r_i * s, z_i + h]);
+    }
+    Ok(out)
+}
+
 /// Path of the drive cable of one ring ("O" or "I") through every bay diagonal,
 /// from the motor at frame 0 around the ring and back to frame 0, where its end is
 /// anchored. The outer diagonals run from the low post's bottom to the high post's
@@ -150,6 +239,10 @@ fn frame_diagonal_inner_end(n: usize, k: usize) -> String {
     format!("I{}_{}", k % n, if k % 2 == 0 { "t" } else { "b" })
 }
 
+fn dist(a: &[f64; 3], b: &[f64; 3]) -> f64 {
+    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
+}
+
 /// Horizontal distance of the farthest joint from the centroid of all joints.
 pub fn horizontal_extent_m(x: &[[f64; 3]]) -> f64 {
     let m = x.len() as f64;
@@ -165,8 +258,11 @@ pub fn horizontal_extent_m(x: &[[f64; 3]]) -> f64 {
 pub fn stowing_ring(p: &RingParams) -> Result<ModelDoc, String> {
     let n = p.sides;
     let phi0 = p.start_deg.to_radians();
-    let x0 = stowing_positions(p, phi0)?;
-    let xd = stowing_positions(p, 0.0)?;
+    let (x0, xd) = if p.bay_by_bay {
+        (raised_positions(p, phi0)?, raised_positions(p, 0.0)?)
+    } else {
+        (stowing_positions(p, phi0)?, stowing_positions(p, 0.0)?)
+    };
     let st = fold_state(p, phi0)?;
     let post = match p.mount.as_str() {
         "post" => true,
@@ -243,11 +339,20 @@ pub fn stowing_ring(p: &RingParams) -> Result<ModelDoc, String> {
                 stowing_cable_path(n, "O")[k].clone(),
                 frame_diagonal_inner_end(n, k),
             ],
-            lock((w * w + h * h).sqrt()),
+            lock(if p.bay_by_bay {
+                // (deployed sheared theta_d: its length there)
+                let (a, b) = (
+                    (k % n) * 4 + if k % 2 == 0 { 0 } else { 1 },
+                    (k % n) * 4 + if k % 2 == 0 { 3 } else { 2 },
+                );
+                dist(&xd[a], &xd[b])
+            } else {
+                (w * w + h * h).sqrt()
+            }),
         ));
         // Bottom chords on revolute hinges fixed in their post's fitting (the inner
         // ones only with `inner_hinges`; otherwise ball joints).
-        let hinged: &[(&str, &str)] = if p.inner_hinges {
+        let hinged: &[(&str, &str)] = if p.inner_hinges && !p.bay_by_bay {
             &[("O", "I"), ("I", "O")]
         } else {
             &[("O", "I")]
@@ -304,6 +409,47 @@ pub fn stowing_ring(p: &RingParams) -> Result<ModelDoc, String> {
             }
         }
     }
+    if p.bay_by_bay {
+        // Inner bay diagonals, from the low inner post's foot (odd frames
+        // low when stowed) to the high one's top, latching flat.
+        let path = stowing_cable_path(n, "I");
+        for k in 0..n {
+            elements.push(el(
+                "sleeve",
+                format!("I_diag{k}"),
+                vec![path[k].clone(), path[k + 1].clone()],
+                lock((ci * ci + h * h).sqrt()),
+            ));
+        }
+        // Compliant gears at the outer posts: the feet of the two outer bays
+        // meeting at post Ok level along it (mirror axial), held by a
+        // spring-damper instead of imposed.
+        let (gk, gc) = (p.gear.stiffness_n_per_m, p.gear.damping_n_s_per_m);
+        if !(gk.is_finite() && gk > 0.0 && gc.is_finite() && gc >= 0.0) {
+            return Err(format!(
+                "gear stiffness {gk} N/m must be > 0 and gear damping {gc} N s/m >= 0"
+            ));
+        }
+        for k in 0..n {
+            let params = vec![
+                ("mirror".to_string(), Param::Text("axial".into())),
+                ("stiffness_n_per_m".to_string(), Param::Num(gk)),
+                ("damping_n_s_per_m".to_string(), Param::Num(gc)),
+            ];
+            elements.push(el(
+                "sync_hinge",
+                format!("GO{k}"),
+                vec![
+                    j("O", k, "b"),
+                    j("O", k, "t"),
+                    j("I", k, "b"),
+                    j("O", k + n - 1, "b"),
+                    j("O", k + 1, "b"),
+                ],
+                params,
+            ));
+        }
+    }
     let cable = CableDoc {
         name: "drive".into(),
         path: stowing_cable_path(n, "O"),
@@ -313,6 +459,31 @@ pub fn stowing_ring(p: &RingParams) -> Result<ModelDoc, String> {
         pulley_radius_m: 0.01,
     };
     let extent = horizontal_extent_m(&x0) / horizontal_extent_m(&xd);
+    if p.bay_by_bay {
+        let (te, to) = raised_fold(p, phi0)?;
+        let notes = bay_by_bay_notes(p, extent, (te, to), post);
+        return Ok(ModelDoc {
+            name: "double_ring".into(),
+            description: format!(
+                "{n}-sided double-ring deployable truss deploying bay by bay: outer chord {co} m, inner chord {ci} m,                  height {h} m, inner ring raised on radial frames sheared {} deg, stowed with the outer bays sheared {} deg                  (start extent {extent:.3} of the deployed)",
+                p.frame_shear_deg, p.start_deg
+            ),
+            notes,
+            dt_s: p.dt_s,
+            end_time_s: 2000.0,
+            damping_n_s_per_m: p.damping_n_s_per_m,
+            joints,
+            elements,
+            cables: vec![CableDoc {
+                name: "drive".into(),
+                path: stowing_cable_path(n, "O"),
+                tension_n: p.tension_n,
+                max_tension_n: p.max_tension_n,
+                friction_mu: p.friction_mu,
+                pulley_radius_m: 0.01,
+            }],
+        });
+    }
     let s = (PI / n as f64).sin();
     let (ro_d, ri_d) = (co / (2.0 * s), ci / (2.0 * s));
     Ok(ModelDoc {
@@ -354,4 +525,34 @@ pub fn stowing_ring(p: &RingParams) -> Result<ModelDoc, String> {
         elements,
         cables: vec![cable],
     })
+}
+
+/// The model notes of the bay-by-bay ring: every joint choice with its source.
+fn bay_by_bay_notes(p: &RingParams, extent: f64, (te, to): (f64, f64), post: bool) -> Vec<String> {
+    let n = p.sides;
+    let (co, ci, h) = (p.outer_chord_m, p.inner_chord_m, p.height_m);
+    let s = (PI / n as f64).sin();
+    let (w0, w) = (ring_depth_m(p), raised_batten_m(p));
+    let thd = p.frame_shear_deg.to_radians();
+    let mut notes = vec![
+        format!("Outer ring circumradius {:.4} m (diameter {:.4} m, the paper's 5.0 m aperture), inner {:.4} m in plan, from the chords.", co / (2.0 * s), co / s, ci / (2.0 * s)),
+        CHORD_UNIT_NOTE.into(),
+        "Every quadrilateral is a parallelogram that shears to fold, as perimeter (hoop) trusses fold: the bay longerons turn until they lie along the posts (TRW, Folding perimeter truss reflector, EP 0959524 A1; NASA NTRS 19870001490: folded longerons, telescoping latching diagonals, bay-by-bay deployment).".into(),
+        format!("Raised inner ring (assumed; docs/double_ring_stowing.md Finding 2): each radial frame (outer post, inner post, battens of {w:.4} m) is deployed as a parallelogram sheared {} deg, its inner post {:.4} m above the outer one at the plan depth {w0:.4} m. A square frame makes every flat bay a cone point (Finding 1); the sheared one does not.", p.frame_shear_deg, w * thd.sin()),
+        format!("Fold (docs/double_ring_stowing.md): outer bays sheared in alternating directions by phi (even posts sink, odd rise by c_o sin(phi)/2); even frames sheared theta_d + x, odd theta_d - x, x solving for the inner chord length. Start: phi {} deg, frames {:.2} and {:.2} deg; the farthest joint is {extent:.3} of its deployed distance from the axis.", p.start_deg, te.to_degrees(), to.to_degrees()),
+        "Hinges (assumed; the paper's figures are missing): outer bottom chords on revolute hinges with axes fixed in the outer post's fitting (frame_hinge), inner chord ends on ball joints, battens hinged in their frame's plane. The bays are then a multi-DOF mechanism, as Xu Yan et al. describe their double-ring truss (Acta Astronautica 2012: an over-constrained multi-DOF mechanism driven by cables).".into(),
+        format!("Compliant gears at every outer post (sync_hinge, mirror axial, {} N/m, {} N s/m; assumed, not a measured value): the feet of the two outer bays meeting there kept level along the post by a spring instead of imposed, so the bays deploy unevenly but none folds the wrong way (docs/double_ring_stowing.md Finding 4).", p.gear.stiffness_n_per_m, p.gear.damping_n_s_per_m),
+        format!("Latches (telescoping diagonal sleeves): each outer bay's diagonal (low post's foot to high post's top, at sqrt(c_o^2 + h^2) = {:.4} m), each inner bay's (at sqrt(c_i^2 + h^2) = {:.4} m) and each radial frame's long diagonal (at its deployed sheared length). Mechanisms before the latches, by hand: n - 3 = {} with the ball-jointed inner chords, plus one first-order one at the symmetric start (`analyze`: 16 for 18 sides); 0 after.", (co * co + h * h).sqrt(), (ci * ci + h * h).sqrt(), n - 3),
+        "Drive (the paper's active cable through the diagonal sleeves): one cable from a motor at post O0's foot through every outer bay diagonal around the ring and back to O0, where its end is anchored; a pulley at every post joint on the way (radius 0.01 m) with capstan friction mu, so the tension falls along the cable away from the motor.".into(),
+        "Latch order: the radial frames latch first and far apart, then the bays in adjacent pairs; the last open bays must surround the ring's axis (docs/double_ring_stowing.md Finding 5), so they flatten together and the order is not strictly motor end first.".into(),
+    ];
+    notes.push(if post {
+        "Mount `post` (default): post O0 clamped to the end fitting of a boom (foot fixed, top held above it, the fitting's turn held by frame 0's inner foot at y = 0), as hoop-truss reflectors hang off their boom at one post (US 10131452 B2). `--mount hub` holds the ring's centre instead.".into()
+    } else {
+        "Mount `hub`: the centre of the outer feet fixed, O0_b held at y = 0 against spin and the mean heights of two blocks of frames level. The default `post` mount clamps post O0 to a boom instead.".into()
+    });
+    notes.push(DAMPING_NOTE.into());
+    notes.push(NUMBERING_NOTE.into());
+    notes.extend(p.latch.as_ref().map(super::latch_note));
+    notes
 }

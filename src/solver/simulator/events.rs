@@ -287,7 +287,10 @@ impl Simulator {
     fn search_step(&mut self, h: f64) -> Result<(), SolverError> {
         let st = &self.settings;
         self.core.stats.latch_search_steps += 1;
-        match self.core.newmark(&self.model, &self.state, h, st, SolveMode::MinNorm) {
+        match self
+            .core
+            .newmark(&self.model, &self.state, h, st, SolveMode::MinNorm)
+        {
             Err(SolverError::NoConvergence { .. }) => {
                 self.core.stats.fallbacks.latch_search_basic += 1;
                 self.core.stats.latch_search_steps += 1;
