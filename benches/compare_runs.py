@@ -23,7 +23,7 @@ def main():
     if "--tol" in args:
         i = args.index("--tol"); tol = float(args[i + 1]); del args[i:i + 2]
     old, new, models = args[0], args[1], args[2:] or [
-        "models/pantograph_mast.toml", "models/double_ring.toml", "models/sail_array.toml"]
+        "models/pantograph_mast.toml", "models/double_ring_synchronized.toml", "models/sail_array.toml"]
     bad = False
     with tempfile.TemporaryDirectory() as d:
         for m in models:

@@ -3,7 +3,7 @@
 (perf_counter) and CPU time (rusage) of each process; prints the ratios of the
 minima and of the medians.
 
-    python3 benches/mcap_overhead.py target/release/truss-deploy models/double_ring.toml 20
+    python3 benches/mcap_overhead.py target/release/truss-deploy models/double_ring_synchronized.toml 20
 """
 import subprocess, time, statistics as S, sys, os
 B=sys.argv[1]; M=sys.argv[2]; n=int(sys.argv[3])

@@ -36,13 +36,13 @@ MAST_UNITS = [4, 20, 60, 100, 500]
 # The first two are measurement 1 (dense against sparse on the 18-sided double ring, same run).
 BENCHES = [
     # Issue 5's acceptance commands, literally (bench's default 200 steps).
-    ("done_ring18_dense", "models/double_ring.toml", "dense", 200),
-    ("done_ring18_sparse", "models/double_ring.toml", "sparse", 200),
+    ("done_ring18_dense", "models/double_ring_synchronized.toml", "dense", 200),
+    ("done_ring18_sparse", "models/double_ring_synchronized.toml", "sparse", 200),
     ("done_r180_sparse", "r180.toml", "sparse", 200),
-    ("ring18_dense", "models/double_ring.toml", "dense", 20),
-    ("ring18_sparse", "models/double_ring.toml", "sparse", 300),
+    ("ring18_dense", "models/double_ring_synchronized.toml", "dense", 20),
+    ("ring18_sparse", "models/double_ring_synchronized.toml", "sparse", 300),
     # The same 20 steps as the dense run (the start of the deployment), for a like-for-like ratio.
-    ("ring18_sparse_20", "models/double_ring.toml", "sparse", 20),
+    ("ring18_sparse_20", "models/double_ring_synchronized.toml", "sparse", 20),
     # Scaling, sparse.
     ("r18_sparse", "r18.toml", "sparse", 100),
     ("r36_sparse", "r36.toml", "sparse", 100),
@@ -105,7 +105,7 @@ def cmd_run(a):
         run_cmd([exe, "bench", m, "--solver", solver, "--steps", str(steps),
                  "--json", out / f"{label}.json"], runs, label, out)
     # Measurement 1: the whole deployment of the 18-sided double ring (sparse, the default).
-    run_cmd([exe, "simulate", ROOT / "models/double_ring.toml", "--json", out / "ring18_simulate.json"],
+    run_cmd([exe, "simulate", ROOT / "models/double_ring_synchronized.toml", "--json", out / "ring18_simulate.json"],
             runs, "ring18_simulate", out)
     # Measurement 3: peak memory of a 360-sided ring.
     tv = "/usr/bin/time"

@@ -4,7 +4,7 @@
 //!
 //!     cargo bench --no-default-features --bench step_parts -- --warm-up-time 1 --measurement-time 2
 //!
-//! Models: the bundled 18-sided double ring (`models/double_ring.toml`) and a
+//! Models: the bundled 18-sided double ring (`models/double_ring_synchronized.toml`) and a
 //! 90-sided ring generated in-process, both with the dense and the sparse
 //! backend except the dense one on the 90-sided ring (too slow). The parts are
 //! timed at one state of a deployment from the model's start, reached by a
@@ -222,8 +222,8 @@ impl Fixture {
 }
 
 fn fixtures() -> Vec<Fixture> {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("models/double_ring.toml");
-    let ring18 = std::fs::read_to_string(&path).expect("models/double_ring.toml");
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("models/double_ring_synchronized.toml");
+    let ring18 = std::fs::read_to_string(&path).expect("models/double_ring_synchronized.toml");
     vec![
         Fixture::new(
             "ring18",
@@ -562,8 +562,8 @@ fn latch_steps(g: &mut BenchmarkGroup<WallTime>, case: &LatchCase) {
 }
 
 fn step(c: &mut Criterion) {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("models/double_ring.toml");
-    let ring18 = std::fs::read_to_string(&path).expect("models/double_ring.toml");
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("models/double_ring_synchronized.toml");
+    let ring18 = std::fs::read_to_string(&path).expect("models/double_ring_synchronized.toml");
     let ring90 = ring_text(90, RingParams::synchronized().start_deg);
     let mut g = c.benchmark_group("step");
     g.sample_size(10);
