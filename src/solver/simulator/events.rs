@@ -307,11 +307,14 @@ impl Simulator {
     /// `latch_capture_m` at the sub-step's start latch there (rigid, their
     /// impulse and the projection's work booked as at any latch; counted as
     /// `latch_captured`), and the number latched is returned for the
-    /// sub-step to be retried. With none to capture, the error stands.
+    /// sub-step to be retried. With none to capture, or a capture that would
+    /// move the joints too far (`capture`), the error stands.
     pub(super) fn capture_or(&mut self, error: SolverError) -> Result<usize, SolverError> {
         if !matches!(
             error,
-            SolverError::NoConvergence { .. } | SolverError::LatchSearch { .. }
+            SolverError::NoConvergence { .. }
+                | SolverError::LatchSearch { .. }
+                | SolverError::Projection { .. }
         ) {
             return Err(error);
         }
@@ -332,12 +335,71 @@ impl Simulator {
         if closing.is_empty() {
             return Err(error);
         }
-        self.core.stats.fallbacks.latch_captured += closing.len() as u64;
         self.x_start.copy_from_slice(&self.state.x);
-        let t = self.state.t_s;
-        self.latch_rigid(&closing, &|_| t)?;
+        if !self.capture(&closing)? {
+            return Err(error);
+        }
+        let swept = self.capture_swept()?;
         self.check_nothing_missed()?;
-        Ok(closing.len())
+        Ok(closing.len() + swept)
+    }
+
+    /// After a latch: the rigid-latching sleeves that the latch's projection
+    /// carried past their lock (between `x_start` and the state) by at most
+    /// `latch_capture_m` latch at the same instant (counted as
+    /// `latch_captured`): near the flat state the last sleeves reach their
+    /// locks within microseconds, and projecting onto one latch's row moves
+    /// the others by as much. Repeated until none is left (each round
+    /// latches at least one). Farther past, `check_nothing_missed` stands.
+    pub(super) fn capture_swept(&mut self) -> Result<usize, SolverError> {
+        let mut total = 0;
+        loop {
+            let (model, s) = (&self.model, &self.state);
+            let (tol, capture) = (self.settings.lock_tol_m, self.settings.latch_capture_m);
+            let swept: Vec<usize> = model
+                .locks
+                .iter()
+                .copied()
+                .filter(|&e| !s.locked[e] && !self.engaged(e))
+                .filter(|&e| model.elements[e].latch_spring().is_none())
+                .filter(|&e| {
+                    let (g0, g1) = (gap(model, e, &self.x_start), gap(model, e, &s.x));
+                    g0 != 0.0 && g0 * g1 < 0.0 && g1.abs() > tol && g1.abs() <= capture
+                })
+                .collect();
+            if swept.is_empty() {
+                return Ok(total);
+            }
+            if !self.capture(&swept)? {
+                return Ok(total);
+            }
+            total += swept.len();
+        }
+    }
+
+    /// Latches `elements` rigid where they stand (a capture), unless that
+    /// moves a joint by more than 100 `latch_capture_m`: near a singular
+    /// configuration the projection onto a latch's row can move the joints
+    /// far from where the motion had them, which would be a latch the
+    /// dynamics never reached; the state is then restored and false
+    /// returned (the failure that asked for the capture stands). The copy of
+    /// the state is made only here, on a failure path.
+    fn capture(&mut self, elements: &[usize]) -> Result<bool, SolverError> {
+        let saved = self.state.clone();
+        let t = self.state.t_s;
+        self.latch_rigid(elements, &|_| t)?;
+        let moved_m = saved
+            .x
+            .iter()
+            .zip(&self.state.x)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max);
+        if moved_m > 100.0 * self.settings.latch_capture_m {
+            self.state = saved;
+            return Ok(false);
+        }
+        self.core.stats.fallbacks.latch_captured += elements.len() as u64;
+        Ok(true)
     }
 
     /// Another unlocked element whose gap has changed sign (beyond the latch

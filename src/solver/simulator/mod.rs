@@ -302,7 +302,12 @@ impl Simulator {
                 .min(self.transient_step_s());
             let (st, base) = (&self.settings, SolveMode::Basic);
             match self.core.newmark(&self.model, &self.state, h, st, base) {
-                Err(SolverError::NoConvergence { .. }) if h > dt * st.min_substep_fraction => {
+                // (a projection that fails at the trial is retried shorter too:
+                // near a singular configuration the shorter step stays nearer
+                // the manifold)
+                Err(SolverError::NoConvergence { .. } | SolverError::Projection { .. })
+                    if h > dt * st.min_substep_fraction =>
+                {
                     self.core.stats.fallbacks.substep_halvings += 1;
                     h_try = 0.5 * h;
                     continue;
@@ -380,7 +385,7 @@ impl Simulator {
                     self.x_start.copy_from_slice(&self.state.x);
                     self.accept(h_star);
                     let settled = self.settle_transients()?;
-                    let latched = settled + self.latch()?;
+                    let latched = settled + self.latch()? + self.capture_swept()?;
                     // Nothing may have passed its lock without latching
                     // (a target short of its lock goes on in the next sub-step).
                     self.check_nothing_missed()?;
