@@ -145,6 +145,20 @@ fn bundled_models_deploy_identically() {
         let name = p.display().to_string();
         if name.contains("pantograph_mast") {
             deploy_both(&name, m, 100_000);
+        } else if name.ends_with("models/double_ring.toml") {
+            // The bay-by-bay ring starts at its symmetric fold, where the
+            // rows leave one first-order mechanism more than the hand count
+            // (16 = 15 + 1, asserted here): there the first step's direction
+            // is not fixed by the rows, and the two solvers' choices differ
+            // by 6.7e-8 m after one step and 7.3e-6 m after two (measured,
+            // `simulate --solver dense|sparse --until 0.2 --csv`), so no
+            // per-step identity holds; the synchronized rings (the file
+            // `double_ring_synchronized.toml` and the nearly deployed ring
+            // below) carry the comparison for the ring's elements.
+            let model = m();
+            let free = vec![false; model.elements.len()];
+            let before = truss_deploy::solver::mobility::analyze(&model, &model.x0, &free);
+            assert_eq!(before.mechanisms, model.locks.len() / 3 - 3 + 1, "{name}");
         } else {
             compare_runs(&name, m, 100, false);
         }
@@ -582,9 +596,10 @@ fn least_work_multipliers_leave_the_trajectory_unchanged() {
         let mut plain = sim(load(&p).expect("model").model, SolverKind::Sparse);
         let mut asked = sim(load(&p).expect("model").model, SolverKind::Sparse);
         let dt = plain.model().dt_s;
+        let max_steps = (plain.model().end_time_s / dt).ceil() as usize;
         let mut k = 0;
         while !plain.state().deployed {
-            assert!(k < 5000, "{}: not deployed", p.display());
+            assert!(k < max_steps, "{}: not deployed", p.display());
             plain.step(dt).expect("step");
             asked.step(dt).expect("step");
             let lambda = asked.least_work_multipliers().expect("multipliers");
