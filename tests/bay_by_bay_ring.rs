@@ -86,14 +86,7 @@ fn the_bay_by_bay_ring_has_many_mechanisms_before_its_latches_and_none_after() {
             sides,
             ..RingParams::bay_by_bay()
         });
-        let free = vec![false; model.elements.len()];
-        let all: Vec<bool> = model
-            .elements
-            .iter()
-            .map(|e| e.lock_gap(&model.x0).is_some())
-            .collect();
-        let before = mobility::analyze(&model, &model.x0, &free);
-        let after = mobility::analyze(&model, model.reference.as_ref().unwrap(), &all);
+        let (before, after) = mobility::before_and_after_locks(&model);
         println!(
             "{sides} sides: {} mechanisms before, {} after",
             before.mechanisms, after.mechanisms

@@ -30,16 +30,7 @@ fn deploy(model: Model) -> Simulator {
 
 /// Mobility at the start with no sleeve latched, and at the reference with all.
 fn mobility_before_and_after(model: &Model) -> (mobility::Mobility, mobility::Mobility) {
-    let free = vec![false; model.elements.len()];
-    let all: Vec<bool> = model
-        .elements
-        .iter()
-        .map(|e| e.lock_gap(&model.x0).is_some())
-        .collect();
-    (
-        mobility::analyze(model, &model.x0, &free),
-        mobility::analyze(model, model.reference.as_ref().unwrap(), &all),
-    )
+    mobility::before_and_after_locks(model)
 }
 
 fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {

@@ -156,8 +156,7 @@ fn bundled_models_deploy_identically() {
             // `double_ring_synchronized.toml` and the nearly deployed ring
             // below) carry the comparison for the ring's elements.
             let model = m();
-            let free = vec![false; model.elements.len()];
-            let before = truss_deploy::solver::mobility::analyze(&model, &model.x0, &free);
+            let (before, _) = truss_deploy::solver::mobility::before_and_after_locks(&model);
             assert_eq!(before.mechanisms, model.locks.len() / 3 - 3 + 1, "{name}");
         } else {
             compare_runs(&name, m, 100, false);

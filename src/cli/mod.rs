@@ -329,19 +329,7 @@ fn analyze(a: AnalyzeArgs) -> Result<(), Failure> {
         output::check_outputs(&[a.model.as_path()], &[("--json", j.as_path())])?;
     }
     let m = &loaded.model;
-    let free: Vec<bool> = m
-        .elements
-        .iter()
-        .map(|e| {
-            e.lock_gap(&m.x0)
-                .is_some_and(|g| g.abs() <= m.solver.lock_tol_m)
-        })
-        .collect();
-    let all: Vec<bool> = m
-        .elements
-        .iter()
-        .map(|e| e.lock_gap(&m.x0).is_some())
-        .collect();
+    let (free, all) = mobility::lock_sets(m);
     let (geometry, xl) = match &m.reference {
         Some(r) => ("reference", r.as_slice()),
         None => ("initial", m.x0.as_slice()),
@@ -349,8 +337,7 @@ fn analyze(a: AnalyzeArgs) -> Result<(), Failure> {
     let err_in = |f: Failure| Failure::input(format!("{}: {}", a.model.display(), f.message));
     finite_jacobian(m, &m.x0, &free, "initial").map_err(err_in)?;
     finite_jacobian(m, xl, &all, geometry).map_err(err_in)?;
-    let before = mobility::analyze(m, &m.x0, &free);
-    let after = mobility::analyze(m, xl, &all);
+    let (before, after) = mobility::before_and_after_locks(m);
     // The initial state as a run starts from it (accelerations under the drive).
     let sim = Simulator::new(loaded.model, Options::default())
         .map_err(|e| Failure::input(format!("{}: {e}", a.model.display())))?;

@@ -32,6 +32,39 @@ pub fn rank(jac: &Jacobian) -> usize {
     super::rank::of_jacobian(jac)
 }
 
+/// The locked sets of `analyze`: the lockable elements already at their lock
+/// (within `lock_tol_m`) in the initial geometry, and every lockable element.
+pub fn lock_sets(model: &Model) -> (Vec<bool>, Vec<bool>) {
+    let x0 = &model.x0;
+    let at_start = model
+        .elements
+        .iter()
+        .map(|e| {
+            e.lock_gap(x0)
+                .is_some_and(|g| g.abs() <= model.solver.lock_tol_m)
+        })
+        .collect();
+    let all = model
+        .elements
+        .iter()
+        .map(|e| e.lock_gap(x0).is_some())
+        .collect();
+    (at_start, all)
+}
+
+/// Mobility before the latches (the initial geometry, the elements already
+/// at their lock locked) and with every lockable element locked (at the
+/// reference geometry, or the initial one without it): what `analyze`
+/// reports.
+pub fn before_and_after_locks(model: &Model) -> (Mobility, Mobility) {
+    let (at_start, all) = lock_sets(model);
+    let xl = model.reference.as_deref().unwrap_or(model.x0.as_slice());
+    (
+        analyze(model, &model.x0, &at_start),
+        analyze(model, xl, &all),
+    )
+}
+
 /// Mobility of `model` at positions `x` with the given locked set.
 pub fn analyze(model: &Model, x: &[f64], locked: &[bool]) -> Mobility {
     let mut jac = Jacobian::pattern(model, locked);

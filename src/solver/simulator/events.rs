@@ -319,13 +319,8 @@ impl Simulator {
             return Err(error);
         }
         let (model, s, capture) = (&self.model, &self.state, self.settings.latch_capture_m);
-        let closing: Vec<usize> = model
-            .locks
-            .iter()
-            .copied()
-            .filter(|&e| !s.locked[e] && !self.engaged(e))
-            // (a compliant latch's transient is its answer: not captured)
-            .filter(|&e| model.elements[e].latch_spring().is_none())
+        let closing: Vec<usize> = self
+            .capturable()
             .filter(|&e| {
                 model.elements[e]
                     .lock_condition(&s.x, &s.v)
@@ -356,12 +351,8 @@ impl Simulator {
         loop {
             let (model, s) = (&self.model, &self.state);
             let (tol, capture) = (self.settings.lock_tol_m, self.settings.latch_capture_m);
-            let swept: Vec<usize> = model
-                .locks
-                .iter()
-                .copied()
-                .filter(|&e| !s.locked[e] && !self.engaged(e))
-                .filter(|&e| model.elements[e].latch_spring().is_none())
+            let swept: Vec<usize> = self
+                .capturable()
                 .filter(|&e| {
                     let (g0, g1) = (gap(model, e, &self.x_start), gap(model, e, &s.x));
                     g0 != 0.0 && g0 * g1 < 0.0 && g1.abs() > tol && g1.abs() <= capture
@@ -375,6 +366,15 @@ impl Simulator {
             }
             total += swept.len();
         }
+    }
+
+    /// The sleeves a capture may latch: unlatched, not engaging, with a rigid
+    /// latch (a compliant latch's transient is its answer: not captured).
+    fn capturable(&self) -> impl Iterator<Item = usize> + '_ {
+        let (model, s) = (&self.model, &self.state);
+        model.locks.iter().copied().filter(move |&e| {
+            !s.locked[e] && !self.engaged(e) && model.elements[e].latch_spring().is_none()
+        })
     }
 
     /// Latches `elements` rigid where they stand (a capture), unless that
