@@ -319,14 +319,18 @@ impl Simulator {
             return Err(error);
         }
         let (model, s, capture) = (&self.model, &self.state, self.settings.latch_capture_m);
-        let closing: Vec<usize> = self
+        // (the one that would reach its lock first, gap / closing rate: the
+        // sub-step is retried after it, and the others latch as the motion
+        // reaches them)
+        let first = self
             .capturable()
-            .filter(|&e| {
-                model.elements[e]
-                    .lock_condition(&s.x, &s.v)
-                    .is_some_and(|c| c.gap_m.abs() <= capture && c.gap_m * c.rate_m_s < 0.0)
+            .filter_map(|e| {
+                let c = model.elements[e].lock_condition(&s.x, &s.v)?;
+                (c.gap_m.abs() <= capture && c.gap_m * c.rate_m_s < 0.0)
+                    .then(|| (-c.gap_m / c.rate_m_s, e))
             })
-            .collect();
+            .min_by(|a, b| a.0.total_cmp(&b.0));
+        let closing: Vec<usize> = first.map(|(_, e)| e).into_iter().collect();
         if closing.is_empty() {
             return Err(error);
         }
@@ -377,8 +381,8 @@ impl Simulator {
         })
     }
 
-    /// Latches `elements` rigid where they stand (a capture), unless that
-    /// moves a joint by more than 100 `latch_capture_m`: near a singular
+    /// Latches `elements` rigid where they stand (a capture), unless its
+    /// projection fails or moves a joint by more than 100 `latch_capture_m`: near a singular
     /// configuration the projection onto a latch's row can move the joints
     /// far from where the motion had them, which would be a latch the
     /// dynamics never reached; the state is then restored and false
@@ -387,7 +391,11 @@ impl Simulator {
     fn capture(&mut self, elements: &[usize]) -> Result<bool, SolverError> {
         let saved = self.state.clone();
         let t = self.state.t_s;
-        self.latch_rigid(elements, &|_| t)?;
+        if self.latch_rigid(elements, &|_| t).is_err() {
+            // (the latch's own projection failed there: as too far a move)
+            self.state = saved;
+            return Ok(false);
+        }
         let moved_m = saved
             .x
             .iter()
