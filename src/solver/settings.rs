@@ -121,9 +121,11 @@ pub struct SolverSettings {
     /// (each shrinks the interval by 0.618 or 0.5).
     pub dip_search_iterations: usize,
     /// Capture (a counted fallback): where a sub-step fails (its Newmark
-    /// iteration at the shortest sub-step, or a latch search), unlatched
-    /// sleeves closing on their lock from within this distance latch where
-    /// they stand, and the sub-step is retried (m). Real latches capture
+    /// iteration or projection at the shortest sub-step, or a latch search),
+    /// the unlatched sleeve closing on its lock first from within this
+    /// distance latches where it stands, and the sub-step is retried; a
+    /// latch that carries sleeves past their lock by at most this latches
+    /// them too (m). Real latches capture
     /// from millimetres; near the ring's flat deployed state the last
     /// sleeves reach their locks within microseconds of each other, where
     /// the structure's rows are nearly redundant.

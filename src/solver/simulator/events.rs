@@ -302,12 +302,13 @@ impl Simulator {
     }
 
     /// Capture after a failed sub-step (`error`: a Newmark iteration that did
-    /// not converge at the shortest sub-step, or a latch search that failed):
-    /// the unlatched sleeves closing on their lock from within
-    /// `latch_capture_m` at the sub-step's start latch there (rigid, their
-    /// impulse and the projection's work booked as at any latch; counted as
-    /// `latch_captured`), and the number latched is returned for the
-    /// sub-step to be retried. With none to capture, or a capture that would
+    /// not converge at the shortest sub-step, a projection that failed there,
+    /// or a latch search that failed): of the unlatched sleeves closing on
+    /// their lock from within `latch_capture_m` at the sub-step's start, the
+    /// one that would reach it first latches there (rigid, its impulse and
+    /// the projection's work booked as at any latch; counted as
+    /// `latch_captured`, with any it sweeps past their lock), and the number
+    /// latched is returned for the sub-step to be retried. With none to capture, or a capture that would
     /// move the joints too far (`capture`), the error stands.
     pub(super) fn capture_or(&mut self, error: SolverError) -> Result<usize, SolverError> {
         if !matches!(
