@@ -96,7 +96,7 @@ def cmd_run(a):
     runs = []
     # Models (not timed).
     for n in RING_SIDES:
-        run_cmd([exe, "generate", "ring", "--sides", str(n), "-o", f"r{n}.toml"], runs, f"gen r{n}", out)
+        run_cmd([exe, "generate", "ring", "--sync", "--sides", str(n), "-o", f"r{n}.toml"], runs, f"gen r{n}", out)
     for u in MAST_UNITS:
         run_cmd([exe, "generate", "mast", "--units", str(u), "-o", f"m{u}.toml"], runs, f"gen m{u}", out)
     # Measurements 1 and 2: per-step cost.

@@ -446,9 +446,21 @@ fn generate_ring_stow_writes_the_stowing_ring() {
         std::fs::read_to_string(&out).unwrap(),
         ring(&RingParams::stowing()).unwrap().to_toml()
     );
+    // the default is the bay-by-bay ring, which --bay-by-bay names
+    for args in [&[][..], &["--bay-by-bay"][..]] {
+        let o = gen(args, &out);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        assert_eq!(
+            std::fs::read_to_string(&out).unwrap(),
+            ring(&RingParams::bay_by_bay()).unwrap().to_toml(),
+            "{args:?}"
+        );
+    }
     for (args, phrase) in [
         (&["--stow", "--mount", "frame0"][..], "--mount"),
         (&["--stow", "--sync"][..], "--sync"),
+        (&["--bay-by-bay", "--sync"][..], "--sync"),
+        (&["--bay-by-bay", "--stow"][..], "--stow"),
     ] {
         let bad = dir.join("bad.toml");
         let o = gen(args, &bad);

@@ -125,7 +125,7 @@ pub struct SolverSettings {
     /// the unlatched sleeve closing on its lock first from within this
     /// distance latches where it stands, and the sub-step is retried; a
     /// latch that carries sleeves past their lock by at most this latches
-    /// them too (m). Real latches capture
+    /// them too (m; 0 turns the capture off). Real latches capture
     /// from millimetres; near the ring's flat deployed state the last
     /// sleeves reach their locks within microseconds of each other, where
     /// the structure's rows are nearly redundant.
@@ -258,7 +258,6 @@ impl SolverSettings {
             ("latch_settle_rel", self.latch_settle_rel),
             ("latch_max_periods", self.latch_max_periods),
             ("latch_immobile_rel", self.latch_immobile_rel),
-            ("latch_capture_m", self.latch_capture_m),
         ];
         for (key, v) in positive {
             if !(v.is_finite() && v > 0.0) {
@@ -266,6 +265,13 @@ impl SolverSettings {
                     "[solver] {key} = {v}: it must be a finite number > 0"
                 ));
             }
+        }
+        // (0 turns the capture off)
+        if !(self.latch_capture_m.is_finite() && self.latch_capture_m >= 0.0) {
+            return Err(format!(
+                "[solver] latch_capture_m = {}: it must be a finite number >= 0 (0: no capture)",
+                self.latch_capture_m
+            ));
         }
         for (key, v) in [
             (

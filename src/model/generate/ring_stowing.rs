@@ -263,7 +263,6 @@ pub fn stowing_ring(p: &RingParams) -> Result<ModelDoc, String> {
     } else {
         (stowing_positions(p, phi0)?, stowing_positions(p, 0.0)?)
     };
-    let st = fold_state(p, phi0)?;
     let post = match p.mount.as_str() {
         "post" => true,
         "hub" => false,
@@ -465,7 +464,9 @@ pub fn stowing_ring(p: &RingParams) -> Result<ModelDoc, String> {
         return Ok(ModelDoc {
             name: "double_ring".into(),
             description: format!(
-                "{n}-sided double-ring deployable truss deploying bay by bay: outer chord {co} m, inner chord {ci} m,                  height {h} m, inner ring raised on radial frames sheared {} deg, stowed with the outer bays sheared {} deg                  (start extent {extent:.3} of the deployed)",
+                "{n}-sided double-ring deployable truss deploying bay by bay: outer chord {co} m, inner chord {ci} m, \
+                 height {h} m, inner ring raised on radial frames sheared {} deg, stowed with the outer bays sheared {} deg \
+                 (start extent {extent:.3} of the deployed)",
                 p.frame_shear_deg, p.start_deg
             ),
             notes,
@@ -484,6 +485,7 @@ pub fn stowing_ring(p: &RingParams) -> Result<ModelDoc, String> {
             }],
         });
     }
+    let st = fold_state(p, phi0)?;
     let s = (PI / n as f64).sin();
     let (ro_d, ri_d) = (co / (2.0 * s), ci / (2.0 * s));
     Ok(ModelDoc {

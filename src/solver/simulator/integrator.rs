@@ -281,15 +281,18 @@ impl Core {
                 (best_change, no_progress) = (f64::INFINITY, 0);
                 continue;
             }
-            // Newton where the friction blend is what keeps the iteration from
-            // contracting (not a stall at the roundoff floor of the solves:
-            // that is the least-squares restart's)
+            // Newton where the friction blend or a stiff compliant element
+            // (its row gain at h, `ElementSprings::max_gain`) is what keeps
+            // the iteration from contracting (not a stall at the roundoff
+            // floor of the solves: that is the least-squares restart's)
             // (from the first iterate where the last Newmark step needed
             // Newton: the plain iterates would run off to a saturated side)
             if (rho >= st.newmark_newton_trigger || self.newton_last)
                 && !self.lagged_friction
                 && !tried_newton
-                && (self.friction_blend_active(model) || !self.element_springs.is_empty())
+                && (self.friction_blend_active(model)
+                    || self.element_springs.max_gain(model, &self.x, h)
+                        >= st.newmark_newton_trigger)
             {
                 newton = true;
                 tried_newton = true;

@@ -324,12 +324,16 @@ impl Simulator {
                 h_try = 0.5 * h;
                 continue;
             }
+            // (a failure that left the state as it was: in a latch search;
+            // one after the state moved on, in a latch's own projection, stands)
+            let before = self.state_mark();
             events += match self.finish_substep(h) {
                 Ok(n) => n,
-                Err(e) => {
+                Err(e) if self.state_mark() == before => {
                     events += self.capture_or(e)?;
                     continue;
                 }
+                Err(e) => return Err(e),
             };
             h_try = (2.0 * h_try).min(dt);
         }
@@ -337,6 +341,18 @@ impl Simulator {
         self.state.steps += 1;
         self.core.stats.steps += 1;
         Ok(events)
+    }
+
+    /// What a sub-step changes of the state before it fails, if anything:
+    /// its time, latch events, engaging latches and latched elements.
+    fn state_mark(&self) -> (f64, usize, usize, usize) {
+        let s = &self.state;
+        (
+            s.t_s,
+            s.locks.len(),
+            s.transients.len(),
+            s.locked.iter().filter(|l| **l).count(),
+        )
     }
 
     /// No sleeve crossed its lock without latching (or engaging) between the

@@ -1,11 +1,13 @@
 //! Newton steps of the Newmark iteration where the fixed-point iteration does
-//! not contract: the stiff term it treats explicitly is the pulley friction's
-//! blend (sigma = clamp(s / s_slip, -1, 1): below the slip speed a pulley's
-//! friction acts as a viscous damper of mu theta T / s_slip).
+//! not contract: the stiff terms it treats explicitly are the pulley
+//! friction's blend (sigma = clamp(s / s_slip, -1, 1): below the slip speed a
+//! pulley's friction acts as a viscous damper of mu theta T / s_slip) and the
+//! compliant elements' springs (`springs::add_force_derivative`:
+//! dQ/dA = -(k h^2/4 + c h/2) A^T A).
 //!
 //! The iteration solves A = G(A), G(A) the constrained accelerations at the
 //! Newmark (x, v) of A. Newton on R(A) = G(A) - A with the derivative
-//! G' = P M_eff^-1 (dQ/dV) h/2 of the friction's blend alone (P the constrained
+//! G' = P M_eff^-1 dQ/dA of the friction's blend ((dQ/dV) h/2) and the springs (P the constrained
 //! solve, dQ/dV from `cable::add_friction_derivative`, nonzero only at pulleys
 //! sliding slower than their slip speed): (I - G') d = R(A), solved by GMRES
 //! in the kinetic inner product <x, y> = sum m_i x_i y_i, each GMRES iteration

@@ -79,6 +79,31 @@ impl ElementSprings {
         }
     }
 
+    /// The largest gain of the Newmark fixed-point map on a spring row at
+    /// step h, (h^2/4) k w + (h/2) c w, with w = sum A_j^2 / m_j the row's
+    /// inverse mass over its free joints (a bound on the constrained one):
+    /// at 1 and above the springs alone keep the plain iteration from
+    /// contracting. 0 without compliant elements.
+    pub fn max_gain(&mut self, model: &Model, x: &[f64], h: f64) -> f64 {
+        let mut gain = 0.0f64;
+        for w in &mut self.work {
+            let el = &model.elements[w.element];
+            el.jacobian(x, &mut w.jac);
+            let joints = el.joints();
+            let width = 3 * joints.len();
+            let (k, c) = (w.spring.stiffness_n_per_m, w.spring.damping_n_s_per_m);
+            for r in 0..w.spring.rows {
+                let inv_mass: f64 = w.jac[r * width..(r + 1) * width]
+                    .iter()
+                    .enumerate()
+                    .map(|(col, a)| a * a * model.inv_mass[3 * joints[col / 3] + col % 3])
+                    .sum();
+                gain = gain.max((0.25 * h * h * k + 0.5 * h * c) * inv_mass);
+            }
+        }
+        gain
+    }
+
     /// Adds the springs' forces -A^T (k Phi + c A Xdot) at (x, v) to `q`.
     pub fn add_forces(&mut self, model: &Model, x: &[f64], v: &[f64], q: &mut [f64]) {
         self.eval(model, x, v);
