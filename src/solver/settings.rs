@@ -130,6 +130,11 @@ pub struct SolverSettings {
     /// sleeves reach their locks within microseconds of each other, where
     /// the structure's rows are nearly redundant.
     pub latch_capture_m: f64,
+    /// ... unless latching it moves a joint farther than this (m): near a
+    /// singular configuration the projection onto a latch's row can move
+    /// the joints far from where the motion had them; the capture is then
+    /// undone and the failure stands.
+    pub latch_capture_max_move_m: f64,
 
     // --- compliant latches (stages `impact` and `ledger`) ---
     /// Steps per latch period until an engaged compliant latch's force has
@@ -198,6 +203,7 @@ impl Default for SolverSettings {
             root_bracket_rel: 1e-15,
             dip_search_iterations: 60,
             latch_capture_m: 1e-5,
+            latch_capture_max_move_m: 1e-3,
             latch_steps_per_period: 128.0,
             latch_settle_steps_per_period: 40.0,
             latch_settle_rel: 1e-3,
@@ -258,6 +264,7 @@ impl SolverSettings {
             ("latch_settle_rel", self.latch_settle_rel),
             ("latch_max_periods", self.latch_max_periods),
             ("latch_immobile_rel", self.latch_immobile_rel),
+            ("latch_capture_max_move_m", self.latch_capture_max_move_m),
         ];
         for (key, v) in positive {
             if !(v.is_finite() && v > 0.0) {

@@ -383,7 +383,7 @@ impl Simulator {
     }
 
     /// Latches `elements` rigid where they stand (a capture), unless its
-    /// projection fails or moves a joint by more than 100 `latch_capture_m`: near a singular
+    /// projection fails or moves a joint farther than `latch_capture_max_move_m`: near a singular
     /// configuration the projection onto a latch's row can move the joints
     /// far from where the motion had them, which would be a latch the
     /// dynamics never reached; the state is then restored and false
@@ -403,7 +403,7 @@ impl Simulator {
             .zip(&self.state.x)
             .map(|(a, b)| (a - b).abs())
             .fold(0.0, f64::max);
-        if moved_m > 100.0 * self.settings.latch_capture_m {
+        if moved_m > self.settings.latch_capture_max_move_m {
             self.undo_capture(saved, elements.len());
             return Ok(false);
         }

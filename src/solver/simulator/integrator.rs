@@ -237,6 +237,9 @@ impl Core {
         let (mut last_change, mut stalls) = (f64::INFINITY, 0);
         let (mut best_change, mut no_progress) = (f64::INFINITY, 0);
         let (mut newton, mut tried_newton) = (false, false);
+        // (whether the friction blend was in play when Newton started: the
+        // Newton gain then measures it, not only a stiff spring's)
+        let mut newton_for_friction = false;
         for _ in 0..st.newmark_max_iterations {
             self.stats.newmark_iterations += 1;
             self.newmark_update(s, h);
@@ -263,6 +266,7 @@ impl Core {
                 // (only where the blend was stiff: a Newton switch at a stall
                 // of another origin changes no step length)
                 self.blend_entry = tried_newton
+                    && newton_for_friction
                     && self.newton.gain >= 1.0
                     && self.friction_blend_entered(model, st.blend_change_rel);
                 self.newton_last = tried_newton;
@@ -287,13 +291,16 @@ impl Core {
             // floor of the solves: that is the least-squares restart's)
             // (from the first iterate where the last Newmark step needed
             // Newton: the plain iterates would run off to a saturated side)
-            if (rho >= st.newmark_newton_trigger || self.newton_last)
+            let stiff = (rho >= st.newmark_newton_trigger || self.newton_last)
                 && !self.lagged_friction
-                && !tried_newton
-                && (self.friction_blend_active(model)
-                    || self.element_springs.max_gain(model, &self.x, h)
+                && !tried_newton;
+            let friction = stiff && self.friction_blend_active(model);
+            if friction
+                || (stiff
+                    && self.element_springs.max_gain(model, &self.x, h)
                         >= st.newmark_newton_trigger)
             {
+                newton_for_friction = friction;
                 newton = true;
                 tried_newton = true;
                 self.stats.fallbacks.newmark_newton += 1;
