@@ -475,14 +475,7 @@ pub fn stowing_ring(p: &RingParams) -> Result<ModelDoc, String> {
             damping_n_s_per_m: p.damping_n_s_per_m,
             joints,
             elements,
-            cables: vec![CableDoc {
-                name: "drive".into(),
-                path: stowing_cable_path(n, "O"),
-                tension_n: p.tension_n,
-                max_tension_n: p.max_tension_n,
-                friction_mu: p.friction_mu,
-                pulley_radius_m: 0.01,
-            }],
+            cables: vec![cable],
         });
     }
     let st = fold_state(p, phi0)?;
