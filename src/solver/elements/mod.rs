@@ -19,6 +19,7 @@ pub mod angulated_scissor;
 pub mod bar;
 pub mod centroid;
 pub mod coplanar;
+pub mod end_stop;
 pub mod frame_hinge;
 pub mod hinge_axis;
 pub mod perpendicular;
@@ -255,6 +256,11 @@ pub const REGISTRY: &[(&str, &str, Builder)] = &[
         "sleeve",
         "telescopic member between 2 joints, free until it latches at `lock_length_m`",
         sleeve::build,
+    ),
+    (
+        "end_stop",
+        "stroke end of a telescopic member between 2 joints: free within [`min_length_m`, `max_length_m`], a stiff spring-damper past it",
+        end_stop::build,
     ),
     (
         "scissor",
