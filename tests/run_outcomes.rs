@@ -635,3 +635,87 @@ fn a_failed_step_names_where_the_truss_was() {
         assert!(msg.contains(part), "`{part}` not in: {msg}");
     }
 }
+
+/// A latch that holds another sleeve short stops the run, naming both.
+/// Oracle by hand: joint B slides on x, pulled toward A by 5 N; sleeve `s1`
+/// (A-B) latches at 1.5 m, which fixes B and so the length of `s2` (B-C, C
+/// fixed at x = 4) at 2.5 m, 1.5 m longer than its lock: s2 can never
+/// latch. Joint E, a separate slider pulled by 1 N against 50 N s/m, still
+/// moves (0.02 m/s, 0.5 m to its lock, 25 s), so the truss is neither rigid
+/// nor at rest: neither the rigid-jam nor the stall check can see it. The
+/// held-short watch stops the run `held_short_confirm_s` (5 s) after s1's
+/// latch. The same truss with s2's lock at 2.5 m deploys.
+#[test]
+fn a_sleeve_held_short_by_a_latch_stops_the_run_naming_it() {
+    let d = temp_dir("held_short");
+    let truss = |s2_lock: f64| {
+        let joint = |n: &str, x: f64| {
+            format!("[[joint]]\nname = \"{n}\"\nposition_m = [{x}, 0.0, 0.0]\nmass_kg = 1.0\n")
+        };
+        let el = |kind: &str, n: &str, j: &str, extra: &str| {
+            format!("[[element]]\ntype = \"{kind}\"\nname = \"{n}\"\njoints = [{j}]\n{extra}\n")
+        };
+        [
+            "[model]\nname = \"held_short\"\n[settings]\ndamping_n_s_per_m = 50.0\nend_time_s = 100.0\n".to_string(),
+            joint("A", 0.0),
+            joint("B", 2.0),
+            joint("C", 4.0),
+            joint("D", 10.0),
+            joint("E", 10.5 + 0.5),
+            el("support", "A_fixed", "\"A\"", ""),
+            el("support", "C_fixed", "\"C\"", ""),
+            el("support", "D_fixed", "\"D\"", ""),
+            el("support", "B_on_x", "\"B\"", "fix = \"yz\""),
+            el("support", "E_on_x", "\"E\"", "fix = \"yz\""),
+            el("sleeve", "s1", "\"A\", \"B\"", "lock_length_m = 1.5"),
+            el("sleeve", "s2", "\"B\", \"C\"", &format!("lock_length_m = {s2_lock}")),
+            el("sleeve", "s3", "\"D\", \"E\"", "lock_length_m = 0.5"),
+            "[[cable]]\nname = \"pull_b\"\npath = [\"A\", \"B\"]\ntension_n = 5.0\n".into(),
+            "[[cable]]\nname = \"pull_e\"\npath = [\"D\", \"E\"]\ntension_n = 1.0\n".into(),
+        ]
+        .concat()
+    };
+    let m = d.join("held.toml");
+    std::fs::write(&m, truss(1.0)).unwrap();
+    let j = d.join("s.json");
+    let o = run(&[
+        "simulate",
+        &m.display().to_string(),
+        "--json",
+        &j.display().to_string(),
+    ]);
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o.stderr));
+    let s = read_json(&j);
+    assert_eq!(s["stop_reason"], "stalled", "{s}");
+    let msg = s["stop_message"].as_str().unwrap();
+    let latch_s1 = s["locks"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .find(|l| l["name"] == "s1")
+        .expect("s1 latched")["time_s"]
+        .as_f64()
+        .unwrap();
+    for part in [
+        "sleeve `s2` is held 1.5000e0 m",
+        "`s1` at t =",
+        "the farthest `s2`",
+    ] {
+        assert!(msg.contains(part), "`{part}` not in: {msg}");
+    }
+    // stopped one confirmation window after the latch, E still short of its lock
+    let end = s["time_s"].as_f64().unwrap();
+    assert!(
+        (end - latch_s1 - 5.0).abs() <= 0.1,
+        "stopped at {end} s, s1 latched at {latch_s1} s: {msg}"
+    );
+    assert!(end < 25.0, "{end}");
+    std::fs::write(&m, truss(2.5)).unwrap();
+    let o = run(&[
+        "simulate",
+        &m.display().to_string(),
+        "--json",
+        &j.display().to_string(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+}

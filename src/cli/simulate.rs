@@ -10,7 +10,7 @@
 
 use super::output::{check_outputs, write_atomic, AtomicFile};
 use super::{interrupt, make_simulator_from, plot, Failure, SolverArg};
-use crate::solver::checks::{self, RunChecks, StallWatch};
+use crate::solver::checks::{self, HeldShortWatch, RunChecks, StallWatch};
 use crate::solver::{Energy, LockEvent, Simulator, SolverStats};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -279,6 +279,7 @@ pub fn run(a: SimulateArgs) -> Result<(), Failure> {
     interrupt::install();
     let start = Instant::now();
     let mut stall = StallWatch::new(sim.model(), &checks);
+    let mut held = HeldShortWatch::new(sim.model(), &checks);
     let stop: (StopReason, String) = loop {
         let (m, s) = (sim.model(), sim.state());
         if let Some(msg) = checks::jammed(m, s, &checks) {
@@ -375,6 +376,12 @@ pub fn run(a: SimulateArgs) -> Result<(), Failure> {
             break (StopReason::Error, format!("at t = {:.6} s {why}", s.t_s));
         }
         if let Some(why) = stall.update(m, s) {
+            break (
+                StopReason::Stalled,
+                format!("stalled at t = {:.6} s: {why}", s.t_s),
+            );
+        }
+        if let Some(why) = held.update(m, s) {
             break (
                 StopReason::Stalled,
                 format!("stalled at t = {:.6} s: {why}", s.t_s),

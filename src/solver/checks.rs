@@ -37,6 +37,14 @@ pub struct RunChecks {
     /// within this distance of its reference geometry (`final_error_rel`);
     /// farther, it jammed short of deployment (stop `stalled`). Default 1e-6.
     pub jam_error_rel: f64,
+    /// A sleeve the latches hold short (`HeldShortWatch`): at least this
+    /// fraction of the structure's size from its lock, and its length still
+    /// within `stall_rel_motion` of the size after `held_short_confirm_s`.
+    /// Default 1e-3.
+    pub held_short_rel_gap: f64,
+    /// How long (s, simulated) a held sleeve is watched before the run stops
+    /// as `stalled`. Default 5 s.
+    pub held_short_confirm_s: f64,
 }
 
 impl Default for RunChecks {
@@ -49,6 +57,8 @@ impl Default for RunChecks {
             max_steps: 2_000_000,
             min_dt_fraction: 1e-9,
             jam_error_rel: 1e-6,
+            held_short_rel_gap: 1e-3,
+            held_short_confirm_s: 5.0,
         }
     }
 }
@@ -147,7 +157,9 @@ pub fn cannot_deploy(model: &Model, state: &State) -> Option<String> {
     None
 }
 
-/// "k of n sleeves unlatched, nearest `S` (gap g m)".
+/// "k of n sleeves unlatched, the nearest `S` g m from its lock length"
+/// and, with more than one open, "the farthest `F` f m": the sleeve (the
+/// bay) that lags most.
 pub fn unlatched_summary(model: &Model, state: &State) -> String {
     let open: Vec<(usize, f64)> = model
         .locks
@@ -155,16 +167,22 @@ pub fn unlatched_summary(model: &Model, state: &State) -> String {
         .filter(|&&e| !state.locked[e])
         .map(|&e| (e, model.elements[e].lock_gap(&state.x).unwrap_or(f64::NAN)))
         .collect();
-    match open.iter().min_by(|a, b| a.1.abs().total_cmp(&b.1.abs())) {
-        None => "every sleeve latched".into(),
-        Some(&(e, g)) => format!(
-            "{} of {} sleeves unlatched, the nearest `{}` {:.3e} m from its lock length",
-            open.len(),
-            model.locks.len(),
-            model.elements[e].name(),
-            g
-        ),
-    }
+    let by_gap = |a: &&(usize, f64), b: &&(usize, f64)| a.1.abs().total_cmp(&b.1.abs());
+    let (Some(&(e, g)), Some(&(f, gf))) = (open.iter().min_by(by_gap), open.iter().max_by(by_gap))
+    else {
+        return "every sleeve latched".into();
+    };
+    let farthest = if open.len() > 1 {
+        format!(", the farthest `{}` {gf:.3e} m", model.elements[f].name())
+    } else {
+        String::new()
+    };
+    format!(
+        "{} of {} sleeves unlatched, the nearest `{}` {g:.3e} m from its lock length{farthest}",
+        open.len(),
+        model.locks.len(),
+        model.elements[e].name(),
+    )
 }
 
 /// A truss rigid (no mechanism left) with sleeves unlatched, farther than
@@ -184,6 +202,134 @@ pub fn jammed(model: &Model, state: &State, checks: &RunChecks) -> Option<String
             unlatched_summary(model, state)
         )
     })
+}
+
+/// The unlatched sleeves whose length the constraints at `locked` fix at
+/// `x` (to first order) at least `min_gap_m` from their lock: the gradient
+/// g of the sleeve's length lies in the row space of A (its component off
+/// the span of the right singular vectors of A with sigma > RANK_TOL
+/// sigma_max is at most the row-sine tolerance of `rank`), so no motion
+/// left to the truss moves that sleeve toward its lock. Returns (element,
+/// gap m). Dense SVD of A: for the checks after a latch, not every step.
+pub fn held_short(model: &Model, x: &[f64], locked: &[bool], min_gap_m: f64) -> Vec<(usize, f64)> {
+    use super::jacobian::Jacobian;
+    let open: Vec<(usize, f64)> = model
+        .locks
+        .iter()
+        .filter(|&&e| !locked[e])
+        .filter_map(|&e| {
+            let g = model.elements[e].lock_gap(x)?;
+            (g.abs() >= min_gap_m).then_some((e, g))
+        })
+        .collect();
+    if open.is_empty() {
+        return Vec::new();
+    }
+    let mut jac = Jacobian::pattern(model, locked);
+    if jac.nrows == 0 {
+        return Vec::new();
+    }
+    jac.fill(model, x);
+    let svd = jac.to_dense().svd(false, true);
+    let v_t = svd.v_t.expect("V requested");
+    let smax = svd.singular_values.iter().cloned().fold(0.0, f64::max);
+    let basis: Vec<usize> = (0..svd.singular_values.len())
+        .filter(|&i| svd.singular_values[i] > super::rank::RANK_TOL * smax)
+        .collect();
+    let n = model.n_coords();
+    let mut row = vec![0.0; 6];
+    open.into_iter()
+        .filter(|&(e, _)| {
+            let el = &model.elements[e];
+            let joints = el.joints();
+            row.resize(3 * joints.len(), 0.0);
+            el.jacobian(x, &mut row);
+            let mut g = vec![0.0; n];
+            for (col, a) in row.iter().enumerate() {
+                g[3 * joints[col / 3] + col % 3] += a;
+            }
+            let norm_sq: f64 = g.iter().map(|a| a * a).sum();
+            let inside: f64 = basis
+                .iter()
+                .map(|&i| {
+                    let p: f64 = (0..n).map(|c| v_t[(i, c)] * g[c]).sum();
+                    p * p
+                })
+                .sum();
+            norm_sq > 0.0 && super::rank::row_is_redundant((norm_sq - inside).max(0.0) / norm_sq)
+        })
+        .collect()
+}
+
+/// Watches for sleeves the latches hold short of their lock: after every
+/// step with a latch, `held_short` names the sleeves no motion left to the
+/// truss can move toward their lock (a bay that folded the wrong way, or
+/// latched out of turn, so that its neighbours locked around it). A held
+/// sleeve whose length then stays put (within `stall_rel_motion` of the
+/// structure's size) for `held_short_confirm_s` can never latch: the run
+/// has jammed, and the watch says which sleeve, where and since when.
+/// (First order: at a singular configuration a sleeve can look held and
+/// still move; the confirmation window lets it.)
+#[derive(Clone, Debug)]
+pub struct HeldShortWatch {
+    min_gap_m: f64,
+    still_m: f64,
+    window_s: f64,
+    latches: usize,
+    /// (sleeve, gap when found, time found, the latch that held it)
+    held: Vec<(usize, f64, f64, String)>,
+}
+
+impl HeldShortWatch {
+    pub fn new(model: &Model, checks: &RunChecks) -> HeldShortWatch {
+        let size = structure_size_m(model);
+        HeldShortWatch {
+            min_gap_m: checks.held_short_rel_gap * size,
+            still_m: checks.stall_rel_motion * size,
+            window_s: checks.held_short_confirm_s,
+            latches: 0,
+            held: Vec::new(),
+        }
+    }
+
+    /// Call after each step; returns the jam message once a held sleeve has
+    /// stayed put for the window.
+    pub fn update(&mut self, model: &Model, state: &State) -> Option<String> {
+        if state.deployed {
+            return None;
+        }
+        let (x, still) = (&state.x, self.still_m);
+        // Held sleeves that latched or moved are free again.
+        self.held.retain(|&(e, g, _, _)| {
+            !state.locked[e]
+                && model.elements[e]
+                    .lock_gap(x)
+                    .is_some_and(|now| (now - g).abs() <= still)
+        });
+        if state.locks.len() != self.latches && state.mechanisms > 0 {
+            self.latches = state.locks.len();
+            let by = state.locks.last().map_or(String::new(), |l| {
+                format!("`{}` at t = {:.6} s", l.name, l.time_s)
+            });
+            for (e, g) in held_short(model, x, &state.locked, self.min_gap_m) {
+                if !self.held.iter().any(|h| h.0 == e) {
+                    self.held.push((e, g, state.t_s, by.clone()));
+                }
+            }
+        }
+        let (e, g, since, by) = self
+            .held
+            .iter()
+            .find(|h| state.t_s - h.2 + 1e-12 >= self.window_s)?;
+        Some(format!(
+            "jammed: sleeve `{}` is held {g:.4e} m from its lock length since t = {since:.6} s, \
+             when the latch of {by} left no motion of the truss that moves it (its length is \
+             fixed by the latched structure: a bay folded the wrong way or latched out of turn), \
+             and it has not moved since; {}",
+            model.elements[*e].name(),
+            unlatched_summary(model, state)
+        ))
+    }
 }
 
 /// Watches for a truss at rest that no drive moves: after every step, the
