@@ -38,10 +38,10 @@ fn extent_m(x: &[f64]) -> f64 {
 /// The stowed start is the closed-form fold: every member (posts, chords,
 /// battens) has its deployed length, and the farthest joint is within 0.30
 /// of its deployed distance from the axis.
-#[test]
-fn the_bay_by_bay_ring_stows_to_a_bundle_with_every_member_at_its_length() {
-    let p = RingParams::bay_by_bay();
-    let m = model_of(&p);
+/// The largest change of a member's length (posts, chords, battens) from
+/// the reference to the start; asserts the paper's chords at the reference.
+fn worst_member_change_m(p: &RingParams) -> f64 {
+    let m = model_of(p);
     let (x0, xd) = (&m.x0, m.reference.as_ref().unwrap());
     let j = |name: &str| m.joint_index(name).unwrap();
     let n = p.sides;
@@ -66,13 +66,114 @@ fn the_bay_by_bay_ring_stows_to_a_bundle_with_every_member_at_its_length() {
         let i = dist(xd, j(&format!("I{k}_t")), j(&format!("I{next}_t")));
         assert!((o - p.outer_chord_m).abs() < 1e-12 && (i - p.inner_chord_m).abs() < 1e-12);
     }
+    worst
+}
+
+/// The stowed start is the closed-form fold: every member (posts, chords,
+/// battens) has its deployed length, and the farthest joint is within 0.30
+/// of its deployed distance from the axis.
+#[test]
+fn the_bay_by_bay_ring_stows_to_a_bundle_with_every_member_at_its_length() {
+    let p = RingParams::bay_by_bay();
+    let worst = worst_member_change_m(&p);
     assert!(
         worst < 1e-9,
         "a member changes length by {worst} m in the fold"
     );
+    let m = model_of(&p);
+    let (x0, xd) = (&m.x0, m.reference.as_ref().unwrap());
     let extent = extent_m(x0) / extent_m(xd);
     println!("start extent {extent:.3}");
     assert!(extent <= 0.30, "start extent {extent}");
+}
+
+/// Starts near deployed fold too (the fold's continuation starts finer
+/// there; it used to step over the root and refuse `--start-deg 0.5`), for
+/// 18 and 36 sides, every member at its length.
+#[test]
+fn the_bay_by_bay_ring_folds_from_any_start_angle() {
+    for sides in [18, 36] {
+        for start_deg in [0.5, 2.0, 5.0, 40.0] {
+            let p = RingParams {
+                sides,
+                start_deg,
+                ..RingParams::bay_by_bay()
+            };
+            let worst = worst_member_change_m(&p);
+            assert!(
+                worst < 1e-9,
+                "{sides} sides from {start_deg} deg: a member changes by {worst} m"
+            );
+        }
+    }
+}
+
+/// Stroke stops (`--stroke-stops`): one `end_stop` per sleeve, on the side
+/// of its stroke away from the lock, and the whole symmetric fold from the
+/// start to deployed inside every stroke with at least the 5 mm margin
+/// (oracle: the closed-form fold, sampled 2.5 times finer than the generator does).
+#[test]
+fn stroke_stops_leave_the_symmetric_fold_free() {
+    use truss_deploy::model::generate::ring_stowing::raised_positions;
+    use truss_deploy::model::generate::LatchParams;
+    let p = RingParams {
+        sides: 36,
+        stroke_stop: Some(LatchParams {
+            stiffness_n_per_m: 1e4,
+            damping_n_s_per_m: 50.0,
+        }),
+        ..RingParams::bay_by_bay()
+    };
+    let doc = ring(&p).unwrap();
+    let sleeves: Vec<_> = doc.elements.iter().filter(|e| e.kind == "sleeve").collect();
+    let stops: Vec<_> = doc
+        .elements
+        .iter()
+        .filter(|e| e.kind == "end_stop")
+        .collect();
+    assert_eq!(sleeves.len(), 3 * p.sides);
+    assert_eq!(stops.len(), sleeves.len());
+    let m = model_of(&p);
+    let num = |e: &truss_deploy::model::file::ElementDoc, key: &str| {
+        e.params.iter().find_map(|(k, v)| match v {
+            truss_deploy::solver::elements::Param::Num(x) if k == key => Some(*x),
+            _ => None,
+        })
+    };
+    let fold: Vec<Vec<f64>> = (0..=1000)
+        .map(|i| {
+            raised_positions(&p, p.start_deg.to_radians() * i as f64 / 1000.0)
+                .unwrap()
+                .concat()
+        })
+        .collect();
+    let mut least_margin = f64::INFINITY;
+    for (sleeve, stop) in sleeves.iter().zip(&stops) {
+        assert_eq!(stop.joints, sleeve.joints);
+        let lock = num(sleeve, "lock_length_m").unwrap();
+        let (a, b) = (
+            m.joint_index(&sleeve.joints[0]).unwrap(),
+            m.joint_index(&sleeve.joints[1]).unwrap(),
+        );
+        let start = dist(&m.x0, a, b);
+        for x in &fold {
+            let l = dist(x, a, b);
+            let margin = match (num(stop, "max_length_m"), num(stop, "min_length_m")) {
+                (Some(max), None) => {
+                    assert!(start > lock && max > lock, "{}", sleeve.name);
+                    max - l
+                }
+                (None, Some(min)) => {
+                    assert!(start < lock && min < lock, "{}", sleeve.name);
+                    l - min
+                }
+                other => panic!("{}: {other:?}", stop.name),
+            };
+            least_margin = least_margin.min(margin);
+        }
+    }
+    println!("least margin to a stroke end along the fold {least_margin:.6} m");
+    assert!(least_margin > 0.0049, "{least_margin}");
 }
 
 /// Mobility: ball-jointed inner chords leave each radial frame's shear free

@@ -513,3 +513,51 @@ fn generate_start_angle_sets_where_the_deployment_starts() {
     }
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// The bay-by-bay ring's gear and stroke-stop options: written into the
+/// model (108 end stops and 300 N/m gears for 36 sides), refused with a
+/// clear message on the other rings, for a damping without its stops, and
+/// for a stiffness that is not positive.
+#[test]
+fn generate_ring_gear_and_stroke_stop_options() {
+    let d = temp_dir("ring_options");
+    let out = d.join("r36.toml");
+    let o = run(&[
+        "generate",
+        "ring",
+        "--sides",
+        "36",
+        "--stroke-stops",
+        "1e4",
+        "--gear-stiffness",
+        "300",
+        "-o",
+        &out.display().to_string(),
+    ]);
+    assert_success(&o, "generate ring --stroke-stops");
+    let text = std::fs::read_to_string(&out).unwrap();
+    assert_eq!(text.matches("type = \"end_stop\"").count(), 108);
+    assert_eq!(text.matches("stiffness_n_per_m = 300").count(), 36);
+    assert!(text.contains("Stroke stops"), "the notes say so");
+    for (args, phrase) in [
+        (
+            vec!["--sync", "--gear-stiffness", "3"],
+            "--gear-stiffness is an option of the bay-by-bay ring",
+        ),
+        (
+            vec!["--stow", "--stroke-stops", "1e4"],
+            "--stroke-stops is an option of the bay-by-bay ring",
+        ),
+        (vec!["--stroke-stop-damping", "5"], "needs --stroke-stops"),
+        (vec!["--gear-stiffness", "0"], "--gear-stiffness 0"),
+        (vec!["--stroke-stops", "-1"], "--stroke-stops -1"),
+    ] {
+        let mut all = vec!["generate", "ring", "-o"];
+        let o_path = d.join("bad.toml").display().to_string();
+        all.push(&o_path);
+        all.extend(args.iter());
+        let o = run(&all);
+        assert_input_error(&o, &format!("{args:?}"), &[phrase], true);
+        assert!(!d.join("bad.toml").exists());
+    }
+}

@@ -172,7 +172,9 @@ fn end_stop_truss(m: f64, f: f64, d: f64, k: f64) -> String {
 /// Largest overrun over one bounce at step h, and the energy balance.
 fn end_stop_overrun(h: f64) -> (f64, f64, f64) {
     let (m, f, d, k) = (0.25, 15.0, 0.1, 1e4);
-    let model = parse(&end_stop_truss(m, f, d, k), "stop.toml").unwrap().model;
+    let model = parse(&end_stop_truss(m, f, d, k), "stop.toml")
+        .unwrap()
+        .model;
     let b = model.joint_index("B").unwrap();
     let mut sim = Simulator::new(model, Options::default()).unwrap();
     let mut lowest = 1.0f64;
@@ -195,7 +197,9 @@ fn an_end_stop_takes_the_overrun_of_the_closed_form() {
     let (mut errs, mut balances) = (Vec::new(), Vec::new());
     for h in [1e-3, 5e-4, 2.5e-4, 1.25e-4] {
         let (delta, exact, balance) = end_stop_overrun(h);
-        println!("h {h:e}: overrun {delta:.6e} m, closed form {exact:.6e} m, balance {balance:.2e}");
+        println!(
+            "h {h:e}: overrun {delta:.6e} m, closed form {exact:.6e} m, balance {balance:.2e}"
+        );
         errs.push((delta - exact).abs() / exact);
         balances.push(balance);
     }
@@ -207,22 +211,44 @@ fn an_end_stop_takes_the_overrun_of_the_closed_form() {
     // the ledger shows it (3e-2 at 1e-3 s, 2e-3 at 1.25e-4 s, not monotone:
     // it depends on where in the step the contact starts). Below the run
     // check's 1e-2 at the finest step.
-    assert!(balances[3] < 1e-2 && balances.iter().all(|b| b.is_finite()), "{balances:?}");
+    assert!(
+        balances[3] < 1e-2 && balances.iter().all(|b| b.is_finite()),
+        "{balances:?}"
+    );
 }
 
 #[test]
 fn an_end_stop_needs_a_stroke_a_stiffness_and_a_start_inside() {
     let base = end_stop_truss(0.25, 15.0, 0.1, 1e4);
     for (from, to, says) in [
-        ("min_length_m = 0.9", "", "needs `max_length_m` and/or `min_length_m`"),
-        ("min_length_m = 0.9", "min_length_m = 1.1", "outside the stroke"),
-        ("min_length_m = 0.9", "min_length_m = 0.9\nmax_length_m = 0.5", "must have 0 <= min < max"),
+        (
+            "min_length_m = 0.9",
+            "",
+            "needs `max_length_m` and/or `min_length_m`",
+        ),
+        (
+            "min_length_m = 0.9",
+            "min_length_m = 1.1",
+            "outside the stroke",
+        ),
+        (
+            "min_length_m = 0.9",
+            "min_length_m = 0.9\nmax_length_m = 0.5",
+            "must have 0 <= min < max",
+        ),
         ("stiffness_n_per_m = 10000", "", "needs `stiffness_n_per_m`"),
-        ("stiffness_n_per_m = 10000", "stiffness_n_per_m = -1", "must be > 0"),
+        (
+            "stiffness_n_per_m = 10000",
+            "stiffness_n_per_m = -1",
+            "must be > 0",
+        ),
     ] {
         assert!(base.contains(from), "{from}");
         let text = base.replace(from, to);
-        let err = parse(&text, "stop.toml").err().expect("an error").to_string();
+        let err = parse(&text, "stop.toml")
+            .err()
+            .expect("an error")
+            .to_string();
         assert!(err.contains(says), "`{says}` not in: {err}");
     }
 }

@@ -131,6 +131,20 @@ struct GenerateArgs {
     /// mast, ring: damping of the compliant latches (N s/m; needs --latch-stiffness).
     #[arg(long, allow_negative_numbers = true)]
     latch_damping: Option<f64>,
+    /// ring (bay-by-bay): stiffness of the compliant gears at the outer posts (N/m; default 100).
+    #[arg(long, allow_negative_numbers = true)]
+    gear_stiffness: Option<f64>,
+    /// ring (bay-by-bay): damping of the gears (N s/m; default 5).
+    #[arg(long, allow_negative_numbers = true)]
+    gear_damping: Option<f64>,
+    /// ring (bay-by-bay): end stops of this stiffness (N/m) at every sleeve's stroke end, the
+    /// length it takes along the symmetric fold farthest from its lock plus 5 mm (an `end_stop`
+    /// element each); none without it. For rings whose bays fold the wrong way (36 sides).
+    #[arg(long, allow_negative_numbers = true)]
+    stroke_stops: Option<f64>,
+    /// ring (bay-by-bay): damping of the end stops (N s/m; default 50; needs --stroke-stops).
+    #[arg(long, allow_negative_numbers = true)]
+    stroke_stop_damping: Option<f64>,
 }
 
 #[derive(Args, Debug)]
@@ -184,6 +198,52 @@ fn latch_option(a: &GenerateArgs) -> Result<Option<generate::LatchParams>, Failu
             damping_n_s_per_m: c.unwrap_or(0.0),
         })),
     }
+}
+
+/// `--gear-stiffness`, `--gear-damping`, `--stroke-stops`,
+/// `--stroke-stop-damping`: only for the bay-by-bay ring.
+fn bay_by_bay_options(
+    a: &GenerateArgs,
+    p: generate::ring::RingParams,
+) -> Result<generate::ring::RingParams, Failure> {
+    let given = [
+        ("--gear-stiffness", a.gear_stiffness),
+        ("--gear-damping", a.gear_damping),
+        ("--stroke-stops", a.stroke_stops),
+        ("--stroke-stop-damping", a.stroke_stop_damping),
+    ];
+    if let (false, Some((name, _))) = (p.bay_by_bay, given.iter().find(|g| g.1.is_some())) {
+        return Err(Failure::input(format!(
+            "{name} is an option of the bay-by-bay ring (the default `generate ring`), not of --sync or --stow"
+        )));
+    }
+    if a.stroke_stop_damping.is_some() && a.stroke_stops.is_none() {
+        return Err(Failure::input(
+            "--stroke-stop-damping needs --stroke-stops (the stops' stiffness)",
+        ));
+    }
+    for (name, v) in given {
+        if let Some(v) = v {
+            if !(v.is_finite() && v >= 0.0) || (v == 0.0 && !name.ends_with("damping")) {
+                return Err(Failure::input(format!(
+                    "{name} {v}: give a finite stiffness > 0 (N/m) or damping >= 0 (N s/m)"
+                )));
+            }
+        }
+    }
+    let gear = generate::LatchParams {
+        stiffness_n_per_m: a.gear_stiffness.unwrap_or(p.gear.stiffness_n_per_m),
+        damping_n_s_per_m: a.gear_damping.unwrap_or(p.gear.damping_n_s_per_m),
+    };
+    let stroke_stop = a.stroke_stops.map(|k| generate::LatchParams {
+        stiffness_n_per_m: k,
+        damping_n_s_per_m: a.stroke_stop_damping.unwrap_or(50.0),
+    });
+    Ok(generate::ring::RingParams {
+        gear,
+        stroke_stop,
+        ..p
+    })
 }
 
 pub struct Failure {
@@ -475,6 +535,7 @@ fn generate_cmd(a: GenerateArgs) -> Result<(), Failure> {
                 latch: latch_option(&a)?,
                 ..d
             };
+            let p = bay_by_bay_options(&a, p)?;
             generate::ring::ring(&p).map_err(Failure::input)?
         }
         Kind::Sail => {

@@ -78,6 +78,11 @@ pub struct RingParams {
     pub frame_shear_deg: f64,
     /// Bay-by-bay ring: stiffness and damping of the outer posts' gears.
     pub gear: super::LatchParams,
+    /// Bay-by-bay ring: end stops on every sleeve at its stowed length (the
+    /// stroke end of the telescoping tube), stiffness and damping; none when None.
+    pub stroke_stop: Option<super::LatchParams>,
+    /// Bay-by-bay ring: stroke beyond the symmetric fold's extreme lengths (m).
+    pub stroke_margin_m: f64,
 }
 
 impl Default for RingParams {
@@ -107,6 +112,8 @@ impl Default for RingParams {
                 stiffness_n_per_m: 100.0,
                 damping_n_s_per_m: 5.0,
             },
+            stroke_stop: None,
+            stroke_margin_m: 0.005,
         }
     }
 }

@@ -171,7 +171,10 @@ pub fn raised_fold(p: &RingParams, phi: f64) -> Result<(f64, f64), String> {
         let ph = phi * i as f64 / steps as f64;
         let f = |x: f64| raised_chord_error(p, ph, thd + x, thd - x);
         let (mut lo, f_lo) = (x, f(x));
-        let mut dx = 1e-4;
+        // (the fold's root is the first of two that leave x = 0 together, at
+        // about 0.1 ph: below ph = 1e-3 rad the scan starts finer, or it steps
+        // over both)
+        let mut dx = if ph < 1e-3 { 0.01 * ph } else { 1e-4 };
         let mut hi = lo + dx;
         while (f(hi) > 0.0) == (f_lo > 0.0) {
             dx *= 1.5;
@@ -449,6 +452,54 @@ pub fn stowing_ring(p: &RingParams) -> Result<ModelDoc, String> {
             ));
         }
     }
+    if let (true, Some(stop)) = (p.bay_by_bay, p.stroke_stop.as_ref()) {
+        // Every sleeve's stroke: the lengths it takes along the symmetric fold
+        // from stowed to deployed, with `stroke_margin_m` to spare; the stop
+        // sits at the end away from the lock.
+        let index = |name: &str| joints.iter().position(|j| j.name == name);
+        let samples = 400;
+        let path: Vec<Vec<[f64; 3]>> = (0..=samples)
+            .map(|i| raised_positions(p, phi0 * i as f64 / samples as f64))
+            .collect::<Result<_, _>>()?;
+        let stops: Vec<ElementDoc> = elements
+            .iter()
+            .filter(|e| e.kind == "sleeve")
+            .filter_map(|e| {
+                let (a, b) = (index(&e.joints[0])?, index(&e.joints[1])?);
+                let lock = e.params.iter().find_map(|(k, v)| match v {
+                    Param::Num(l) if k == "lock_length_m" => Some(*l),
+                    _ => None,
+                })?;
+                let lengths = path.iter().map(|x| dist(&x[a], &x[b]));
+                let (lo, hi) = lengths.fold((f64::INFINITY, 0.0f64), |(lo, hi), l| {
+                    (lo.min(l), hi.max(l))
+                });
+                let l0 = dist(&x0[a], &x0[b]);
+                let (end, l) = if l0 > lock {
+                    ("max_length_m", hi + p.stroke_margin_m)
+                } else {
+                    ("min_length_m", lo - p.stroke_margin_m)
+                };
+                Some(el(
+                    "end_stop",
+                    format!("{}_stop", e.name),
+                    e.joints.clone(),
+                    vec![
+                        (end.to_string(), Param::Num(l)),
+                        (
+                            "stiffness_n_per_m".to_string(),
+                            Param::Num(stop.stiffness_n_per_m),
+                        ),
+                        (
+                            "damping_n_s_per_m".to_string(),
+                            Param::Num(stop.damping_n_s_per_m),
+                        ),
+                    ],
+                ))
+            })
+            .collect();
+        elements.extend(stops);
+    }
     let cable = CableDoc {
         name: "drive".into(),
         path: stowing_cable_path(n, "O"),
@@ -549,5 +600,9 @@ fn bay_by_bay_notes(p: &RingParams, extent: f64, (te, to): (f64, f64), post: boo
     notes.push(DAMPING_NOTE.into());
     notes.push(NUMBERING_NOTE.into());
     notes.extend(p.latch.as_ref().map(super::latch_note));
+    notes.extend(p.stroke_stop.as_ref().map(|s| format!(
+        "Stroke stops (`--stroke-stops`; assumed, not a measured value): every sleeve's telescoping tube ends its stroke {} m beyond the length it takes along the symmetric fold farthest from its lock (an `end_stop` element, {} N/m, {} N s/m), so no bay folds tighter, and no frame shears further the wrong way, than the symmetric fold takes it (docs/double_ring_stowing.md, Session 8).",
+        p.stroke_margin_m, s.stiffness_n_per_m, s.damping_n_s_per_m
+    )));
     notes
 }
