@@ -678,12 +678,15 @@ fn a_sleeve_held_short_by_a_latch_stops_the_run_naming_it() {
     let m = d.join("held.toml");
     std::fs::write(&m, truss(1.0)).unwrap();
     let j = d.join("s.json");
-    let o = run(&[
-        "simulate",
-        &m.display().to_string(),
-        "--json",
-        &j.display().to_string(),
-    ]);
+    let simulate = || {
+        run(&[
+            "simulate",
+            &m.display().to_string(),
+            "--json",
+            &j.display().to_string(),
+        ])
+    };
+    let o = simulate();
     assert_eq!(o.status.code(), Some(1), "{}", text(&o.stderr));
     let s = read_json(&j);
     assert_eq!(s["stop_reason"], "stalled", "{s}");
@@ -711,11 +714,6 @@ fn a_sleeve_held_short_by_a_latch_stops_the_run_naming_it() {
     );
     assert!(end < 25.0, "{end}");
     std::fs::write(&m, truss(2.5)).unwrap();
-    let o = run(&[
-        "simulate",
-        &m.display().to_string(),
-        "--json",
-        &j.display().to_string(),
-    ]);
+    let o = simulate();
     assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
 }
