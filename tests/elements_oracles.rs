@@ -290,6 +290,26 @@ fn sync_hinge_fixture(mirror: &'static str) -> Fixture {
     }
 }
 
+/// |(3,4,0)| = 5: the stroke [4.99, 5.0] m puts X0 at its long end, so the
+/// random configurations press both ends of the stroke and leave it free.
+fn end_stop_fixture() -> Fixture {
+    let x0 = layout(3, &[(1, [0.0, 0.0, 0.0]), (2, [3.0, 4.0, 0.0])]);
+    Fixture {
+        label: "end_stop",
+        spec: spec(
+            "end_stop",
+            &[1, 2],
+            &[
+                ("min_length_m", num(4.99)),
+                ("max_length_m", num(5.0)),
+                ("stiffness_n_per_m", num(1e4)),
+            ],
+        ),
+        x0,
+        size: 3.0,
+    }
+}
+
 fn centroid_fixture() -> Fixture {
     let pts = [[1.0, 0.0, 0.2], [0.0, 1.0, -0.2], [-1.0, 0.1, 0.3]];
     let idx = [4, 0, 2];
@@ -371,6 +391,7 @@ fn all_fixtures() -> Vec<Fixture> {
         sync_hinge_fixture("both"),
         sync_hinge_fixture("axial"),
         sync_hinge_fixture("radial"),
+        end_stop_fixture(),
         support_fixture("xz"),
         support_fixture("xyz"),
     ]
@@ -378,7 +399,8 @@ fn all_fixtures() -> Vec<Fixture> {
 
 /// All elements are evaluated as active (sleeves latched).
 fn rows(el: &dyn Constraint) -> usize {
-    el.rows(true)
+    // (a compliant element imposes none; its spring's rows are its residual)
+    el.spring().map_or(el.rows(true), |s| s.rows)
 }
 
 fn residual(el: &dyn Constraint, x: &[f64]) -> Vec<f64> {
@@ -613,6 +635,7 @@ fn row_counts_match_the_documented_element_rows() {
         ("sync_hinge both", 2),
         ("sync_hinge axial", 1),
         ("sync_hinge radial", 1),
+        ("end_stop", 1),
     ];
     let fixtures = all_fixtures();
     for (label, n) in expected {
@@ -672,6 +695,32 @@ fn six_bar_plate_derivatives_match_finite_differences() {
     let f = plate_fixture(Some("six_bars"));
     check_jacobian_fd(&f, 71);
     assert!(check_convective_fd(&f, 72) > 1e-3);
+}
+
+/// The end stop's overrun max(0, l - L_max) + min(0, l - L_min) has the
+/// Jacobian [-e, e] where engaged and 0 where free: central differences agree
+/// at configurations on both sides of the stroke and inside it (the kink
+/// itself is not sampled). Its Adot Xdot is 0 (a spring row, never imposed).
+#[test]
+fn end_stop_derivatives_match_finite_differences() {
+    let f = end_stop_fixture();
+    let el = f.build();
+    let (mut long, mut short, mut free) = (0, 0, 0);
+    for x in (91..101).flat_map(|seed| {
+        check_jacobian_fd(&f, seed);
+        random_configs(&f, seed)
+    }) {
+        let r = residual(el.as_ref(), &x)[0];
+        match r {
+            r if r > 0.0 => long += 1,
+            r if r < 0.0 => short += 1,
+            _ => free += 1,
+        }
+    }
+    assert!(
+        long > 0 && short > 0,
+        "long {long}, short {short}, free {free}"
+    );
 }
 
 #[test]
