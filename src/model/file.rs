@@ -20,6 +20,8 @@
 //! stall_time_s = 1.0         # ... within this time; so long at rest: `stalled`
 //! max_steps = 2000000        # step budget of one run
 //! jam_error_rel = 1e-6       # rigid with sleeves unlatched, farther from the reference: `stalled`
+//! held_short_rel_gap = 1e-3  # a latch leaves a sleeve this fraction of the size short, fixed ...
+//! held_short_confirm_s = 5.0 # ... and it has not moved so long after: `stalled` (1e300: never)
 //! [solver]                   # all optional: tolerances and iteration limits,
 //! newmark_max_iterations = 60  # keys and defaults in solver::settings
 //!
@@ -109,6 +111,8 @@ struct ChecksSpec {
     stall_time_s: Option<f64>,
     max_steps: Option<u64>,
     jam_error_rel: Option<f64>,
+    held_short_rel_gap: Option<f64>,
+    held_short_confirm_s: Option<f64>,
 }
 
 /// Exactly three numbers [x, y, z]: serde's fixed-size arrays would take the
@@ -595,6 +599,12 @@ fn run_checks(c: &ChecksSpec) -> Result<RunChecks, String> {
     }
     if let Some(v) = positive("jam_error_rel", c.jam_error_rel)? {
         r.jam_error_rel = v;
+    }
+    if let Some(v) = positive("held_short_rel_gap", c.held_short_rel_gap)? {
+        r.held_short_rel_gap = v;
+    }
+    if let Some(v) = positive("held_short_confirm_s", c.held_short_confirm_s)? {
+        r.held_short_confirm_s = v;
     }
     if let Some(v) = c.max_steps {
         if v == 0 {

@@ -5,7 +5,8 @@
 //!
 //! Tolerances live in [`RunChecks`]; every field has a default and a doc
 //! line. A model file's `[checks]` table sets `energy_balance_rel_tol`,
-//! `stall_rel_motion`, `stall_time_s` and `max_steps`; the others are fixed.
+//! `stall_rel_motion`, `stall_time_s`, `max_steps`, `jam_error_rel`,
+//! `held_short_rel_gap` and `held_short_confirm_s`; the others are fixed.
 
 use super::cable;
 use super::model::Model;
@@ -210,9 +211,16 @@ pub fn jammed(model: &Model, state: &State, checks: &RunChecks) -> Option<String
 /// the span of the right singular vectors of A with sigma > RANK_TOL
 /// sigma_max is at most the row-sine tolerance of `rank`), so no motion
 /// left to the truss moves that sleeve toward its lock. Returns (element,
-/// gap m). Dense SVD of A: for the checks after a latch, not every step.
+/// gap m). Dense SVD of A: for the checks after a latch, not every step,
+/// and only on models of at most `[solver] rank_check_max_coords`
+/// coordinates (the SVD's cost grows as rows x coordinates^2: 0.11 s on the
+/// 36-sided ring's 432, 32 s on the 180-sided ring's 2160); larger models
+/// get no answer (an empty list).
 pub fn held_short(model: &Model, x: &[f64], locked: &[bool], min_gap_m: f64) -> Vec<(usize, f64)> {
     use super::jacobian::Jacobian;
+    if model.n_coords() > model.solver.rank_check_max_coords {
+        return Vec::new();
+    }
     let open: Vec<(usize, f64)> = model
         .locks
         .iter()
@@ -236,7 +244,6 @@ pub fn held_short(model: &Model, x: &[f64], locked: &[bool], min_gap_m: f64) -> 
     let basis: Vec<usize> = (0..svd.singular_values.len())
         .filter(|&i| svd.singular_values[i] > super::rank::RANK_TOL * smax)
         .collect();
-    let n = model.n_coords();
     let mut row = vec![0.0; 6];
     open.into_iter()
         .filter(|&(e, _)| {
@@ -244,15 +251,22 @@ pub fn held_short(model: &Model, x: &[f64], locked: &[bool], min_gap_m: f64) -> 
             let joints = el.joints();
             row.resize(3 * joints.len(), 0.0);
             el.jacobian(x, &mut row);
-            let mut g = vec![0.0; n];
-            for (col, a) in row.iter().enumerate() {
-                g[3 * joints[col / 3] + col % 3] += a;
+            // g = dl/dX is nonzero only on the sleeve's joints' columns (a
+            // joint named twice adds up, as in the assembled Jacobian).
+            let mut g: Vec<(usize, f64)> = Vec::with_capacity(row.len());
+            for (col, &a) in row.iter().enumerate() {
+                let c = 3 * joints[col / 3] + col % 3;
+                match g.iter_mut().find(|(cc, _)| *cc == c) {
+                    Some((_, v)) => *v += a,
+                    None => g.push((c, a)),
+                }
             }
-            let norm_sq: f64 = g.iter().map(|a| a * a).sum();
+            let norm_sq: f64 = g.iter().map(|(_, a)| a * a).sum();
+            // |P g|^2 = sum over the basis of (v_i . g)^2
             let inside: f64 = basis
                 .iter()
                 .map(|&i| {
-                    let p: f64 = (0..n).map(|c| v_t[(i, c)] * g[c]).sum();
+                    let p: f64 = g.iter().map(|&(c, a)| v_t[(i, c)] * a).sum();
                     p * p
                 })
                 .sum();
@@ -306,11 +320,20 @@ impl HeldShortWatch {
                     .lock_gap(x)
                     .is_some_and(|now| (now - g).abs() <= still)
         });
-        if state.locks.len() != self.latches && state.mechanisms > 0 {
-            self.latches = state.locks.len();
-            let by = state.locks.last().map_or(String::new(), |l| {
-                format!("`{}` at t = {:.6} s", l.name, l.time_s)
-            });
+        // A latch holds once it is rigid: at its event for a rigid latch,
+        // when its transient settles for a compliant one (its event came
+        // earlier), so the rigid set is what is watched, not the events.
+        let rigid = state.locked.iter().filter(|&&l| l).count();
+        if rigid != self.latches && state.mechanisms > 0 {
+            self.latches = rigid;
+            let by = state
+                .locks
+                .iter()
+                .rev()
+                .find(|l| state.locked[l.element])
+                .map_or(String::new(), |l| {
+                    format!("`{}` at t = {:.6} s", l.name, l.time_s)
+                });
             for (e, g) in held_short(model, x, &state.locked, self.min_gap_m) {
                 if !self.held.iter().any(|h| h.0 == e) {
                     self.held.push((e, g, state.t_s, by.clone()));
