@@ -108,6 +108,35 @@ fn the_bay_by_bay_ring_folds_from_any_start_angle() {
     }
 }
 
+/// Large rings fold too, with stroke stops (whose sizing samples the fold
+/// at 400 smaller angles): the fold's two roots lie about 0.1 ph x 18/n
+/// apart, and a continuation whose scan started at a fixed 1e-4 rad stepped
+/// over both (`generate ring --sides 180 --stroke-stops 1e4` was refused
+/// at the default start, 240 sides from 5 deg, 360 from 20).
+#[test]
+fn large_bay_by_bay_rings_fold_with_stroke_stops() {
+    use truss_deploy::model::generate::LatchParams;
+    for (sides, start_deg) in [(180, 75.0), (180, 12.0), (240, 5.0), (360, 20.0)] {
+        let p = RingParams {
+            sides,
+            start_deg,
+            stroke_stop: Some(LatchParams {
+                stiffness_n_per_m: 1e4,
+                damping_n_s_per_m: 50.0,
+            }),
+            ..RingParams::bay_by_bay()
+        };
+        if let Err(e) = ring(&p) {
+            panic!("{sides} sides from {start_deg} deg: {e}");
+        }
+        let worst = worst_member_change_m(&p);
+        assert!(
+            worst < 1e-9,
+            "{sides} sides from {start_deg} deg: a member changes by {worst} m"
+        );
+    }
+}
+
 /// Stroke stops (`--stroke-stops`): one `end_stop` per sleeve, on the side
 /// of its stroke away from the lock, and the whole symmetric fold from the
 /// start to deployed inside every stroke with at least the 5 mm margin

@@ -78,8 +78,9 @@ pub struct RingParams {
     pub frame_shear_deg: f64,
     /// Bay-by-bay ring: stiffness and damping of the outer posts' gears.
     pub gear: super::LatchParams,
-    /// Bay-by-bay ring: end stops on every sleeve at its stowed length (the
-    /// stroke end of the telescoping tube), stiffness and damping; none when None.
+    /// Bay-by-bay ring: end stops on every sleeve at its stroke end (the
+    /// length the symmetric fold takes farthest from its lock, plus
+    /// `stroke_margin_m`), stiffness and damping; none when None.
     pub stroke_stop: Option<super::LatchParams>,
     /// Bay-by-bay ring: stroke beyond the symmetric fold's extreme lengths (m).
     pub stroke_margin_m: f64,

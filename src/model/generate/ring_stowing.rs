@@ -171,17 +171,17 @@ pub fn raised_fold(p: &RingParams, phi: f64) -> Result<(f64, f64), String> {
         let ph = phi * i as f64 / steps as f64;
         let f = |x: f64| raised_chord_error(p, ph, thd + x, thd - x);
         let (mut lo, f_lo) = (x, f(x));
-        // (the fold's root is the first of two that leave x = 0 together, at
-        // about 0.1 ph: below ph = 1e-3 rad the scan starts finer, or it steps
-        // over both)
-        let mut dx = if ph < 1e-3 { 0.01 * ph } else { 1e-4 };
+        // (the fold's root is the first of two that leave x = 0 together,
+        // about 0.1 ph apart at 18 sides and 18/n as far on n sides: the scan
+        // starts at a step below that spacing, or it steps over both)
+        let mut dx = if ph < 1e-3 { 0.01 * ph } else { 1e-4f64.min(1e-3 * ph) };
         let mut hi = lo + dx;
         while (f(hi) > 0.0) == (f_lo > 0.0) {
             dx *= 1.5;
             hi = lo + dx;
             if hi > PI {
                 return Err(format!(
-                    "the bay-by-bay ring does not fold to {:.1} deg (its radial frames reach their limit at {:.1} deg); use a smaller --start-deg",
+                    "the bay-by-bay ring does not fold to {:.1} deg (past {:.1} deg no frame shear keeps the inner chords at their length); use a smaller --start-deg",
                     phi.to_degrees(),
                     ph.to_degrees()
                 ));
