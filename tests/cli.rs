@@ -539,6 +539,32 @@ fn generate_ring_gear_and_stroke_stop_options() {
     assert_eq!(text.matches("type = \"end_stop\"").count(), 108);
     assert_eq!(text.matches("stiffness_n_per_m = 300").count(), 36);
     assert!(text.contains("Stroke stops"), "the notes say so");
+    // --inner-chord-m: the rule of the paper's chords (depth = mean chord)
+    // at 36 sides; the deployed inner chords have that length, and the
+    // depth (c_o - c_i) / (2 sin(pi/n)) is the mean chord
+    let s36 = (std::f64::consts::PI / 36.0).sin();
+    let ci = 0.8757 * (1.0 - s36) / (1.0 + s36);
+    let out = d.join("r36_rule.toml");
+    let o = run(&[
+        "generate",
+        "ring",
+        "--sides",
+        "36",
+        "--inner-chord-m",
+        &format!("{ci}"),
+        "-o",
+        &out.display().to_string(),
+    ]);
+    assert_success(&o, "generate ring --inner-chord-m");
+    let m = truss_deploy::model::load(&out).unwrap().model;
+    let xd = m.reference.as_ref().unwrap();
+    let (a, b) = (m.joint_index("I0_t").unwrap(), m.joint_index("I1_t").unwrap());
+    let chord = (0..3)
+        .map(|k| (xd[3 * a + k] - xd[3 * b + k]).powi(2))
+        .sum::<f64>()
+        .sqrt();
+    assert!((chord - ci).abs() < 1e-12, "inner chord {chord} against {ci}");
+    assert!(((0.8757 - ci) / (2.0 * s36) - 0.5 * (0.8757 + ci)).abs() < 1e-12);
     for (args, phrase) in [
         (
             vec!["--sync", "--gear-stiffness", "3"],
@@ -551,6 +577,9 @@ fn generate_ring_gear_and_stroke_stop_options() {
         (vec!["--stroke-stop-damping", "5"], "needs --stroke-stops"),
         (vec!["--gear-stiffness", "0"], "--gear-stiffness 0"),
         (vec!["--stroke-stops", "-1"], "--stroke-stops -1"),
+        (vec!["--inner-chord-m", "0.9"], "--inner-chord-m 0.9"),
+        (vec!["--inner-chord-m", "-0.5"], "--inner-chord-m -0.5"),
+        (vec!["--sync", "--inner-chord-m", "NaN"], "--inner-chord-m NaN"),
     ] {
         let mut all = vec!["generate", "ring", "-o"];
         let o_path = d.join("bad.toml").display().to_string();

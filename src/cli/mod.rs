@@ -145,6 +145,11 @@ struct GenerateArgs {
     /// ring (bay-by-bay): damping of the end stops (N s/m; default 50; needs --stroke-stops).
     #[arg(long, allow_negative_numbers = true)]
     stroke_stop_damping: Option<f64>,
+    /// ring: inner chord (m; default the paper's 0.6167). The paper's chords make the ring's
+    /// depth its mean chord at 18 sides, so that it folds to a bundle: on n sides the same rule
+    /// gives c_o (1 - sin(pi/n)) / (1 + sin(pi/n)) (0.7353 m at 36; see docs/double_ring_stowing.md).
+    #[arg(long, allow_negative_numbers = true)]
+    inner_chord_m: Option<f64>,
 }
 
 #[derive(Args, Debug)]
@@ -532,9 +537,18 @@ fn generate_cmd(a: GenerateArgs) -> Result<(), Failure> {
                 damping_n_s_per_m: a.damping.unwrap_or(d.damping_n_s_per_m),
                 mount: a.mount.clone().unwrap_or(d.mount.clone()),
                 start_deg: a.start_deg.unwrap_or(d.start_deg),
+                inner_chord_m: a.inner_chord_m.unwrap_or(d.inner_chord_m),
                 latch: latch_option(&a)?,
                 ..d
             };
+            if let Some(ci) = a.inner_chord_m {
+                if !(ci.is_finite() && ci > 0.0 && ci < p.outer_chord_m) {
+                    return Err(Failure::input(format!(
+                        "--inner-chord-m {ci}: give a length in metres between 0 and the outer chord, {} m",
+                        p.outer_chord_m
+                    )));
+                }
+            }
             let p = bay_by_bay_options(&a, p)?;
             generate::ring::ring(&p).map_err(Failure::input)?
         }
