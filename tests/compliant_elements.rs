@@ -217,6 +217,80 @@ fn an_end_stop_takes_the_overrun_of_the_closed_form() {
     );
 }
 
+/// A damped end stop only pushes. B (mass m) is pulled into the stop as
+/// above, the cable let go a step before contact, so B arrives at v_in and
+/// the contact is a free Kelvin-Voigt one, m x'' + c x' + k x = 0 from
+/// x = 0, x' = v_in (x the overrun). It lets go where the contact force
+/// k x + c x' falls to 0, at omega_d t_s = atan2(-2 z sqrt(1 - z^2), 1 - 2 z^2)
+/// mod pi (z = c / (2 sqrt(k m))), not where x returns to 0: B leaves at
+///     v_out = v_in e^(-z omega t_s) (cos omega_d t_s - z omega / omega_d sin omega_d t_s),
+/// a coefficient of restitution of 0.298 at z = 0.5, against the
+/// exp(-z pi / sqrt(1 - z^2)) = 0.163 of a stop whose damper also pulls
+/// (sticky). Converges with the step; the energy balance holds the spring
+/// energy the contact let go as loss.
+fn end_stop_restitution(h: f64) -> (f64, f64, f64) {
+    let (m, f, d, k, c) = (0.25, 15.0, 0.1, 1e4, 50.0);
+    let text = end_stop_truss(m, f, d, k).replace(
+        "stiffness_n_per_m = 10000",
+        &format!("stiffness_n_per_m = 10000\ndamping_n_s_per_m = {c}"),
+    );
+    assert!(text.contains("damping_n_s_per_m = 50"), "{text}");
+    let model = parse(&text, "stop.toml").unwrap().model;
+    let b = model.joint_index("B").unwrap();
+    let mut sim = Simulator::new(model, Options::default()).unwrap();
+    let end = 1.0 - d;
+    let mut v_in = None;
+    for _ in 0..(1.0 / h) as usize {
+        let (x, v) = (sim.state().x[3 * b], sim.state().v[3 * b]);
+        if v_in.is_none() && x + 2.0 * v * h < end {
+            sim.set_cable_tension(0, 0.0).unwrap();
+            v_in = Some(v); // free flight from here to the stop
+        }
+        sim.step(h).unwrap();
+        if v_in.is_some() && sim.state().x[3 * b] > end + 1e-3 {
+            break;
+        }
+    }
+    let v_in = v_in.expect("reached the stop");
+    let s = sim.state();
+    assert!(s.x[3 * b] > end + 1e-3, "B did not come back out: {}", s.x[3 * b]);
+    let v_out = s.v[3 * b];
+    let w = (k / m).sqrt();
+    let z = c / (2.0 * (k * m).sqrt());
+    let wd = w * (1.0 - z * z).sqrt();
+    let ts = (-2.0 * z * (1.0 - z * z).sqrt())
+        .atan2(1.0 - 2.0 * z * z)
+        .rem_euclid(std::f64::consts::PI)
+        / wd;
+    let exact = (-z * w * ts).exp() * ((wd * ts).cos() - z * w / wd * (wd * ts).sin());
+    (
+        -v_out / v_in,
+        -exact,
+        s.energy.balance_rel_error(s.kinetic_energy_j(sim.model())),
+    )
+}
+
+#[test]
+fn a_damped_end_stop_lets_go_where_its_force_falls_to_zero() {
+    let (mut errs, mut balances) = (Vec::new(), Vec::new());
+    for h in [4e-4, 2e-4, 1e-4, 5e-5] {
+        let (e, exact, balance) = end_stop_restitution(h);
+        println!("h {h:e}: restitution {e:.6}, closed form {exact:.6}, balance {balance:.2e}");
+        errs.push((e - exact).abs() / exact);
+        balances.push(balance);
+    }
+    println!("relative errors {errs:?}, balances {balances:?}");
+    // the sticky answer is 0.163 against 0.298: far outside these
+    assert!(errs[3] < 1e-2 && errs[3] < errs[0], "{errs:?}");
+    // the onset and the release fall inside steps (not located): the
+    // ledger's error there, as in the test above, below the run check's
+    // 1e-2 at the finest step
+    assert!(
+        balances[3] < 1e-2 && balances.iter().all(|b| b.is_finite()),
+        "{balances:?}"
+    );
+}
+
 #[test]
 fn an_end_stop_needs_a_stroke_a_stiffness_and_a_start_inside() {
     let base = end_stop_truss(0.25, 15.0, 0.1, 1e4);

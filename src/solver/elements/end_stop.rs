@@ -4,7 +4,8 @@
 //! `min_length_m` when given); past it a stiff spring-damper pushes back on
 //! the overrun
 //!     Phi = max(0, l - L_max) + min(0, l - L_min),
-//! with the force -A^T (k Phi + c A Xdot), A = dPhi/dX = [-e, e] (e the unit
+//! with the force -A^T f, f = k Phi + c A Xdot where it pushes (the sign of
+//! Phi) and 0 where it would pull, A = dPhi/dX = [-e, e] (e the unit
 //! vector a->b) while engaged and 0 while free, and the elastic energy
 //! 1/2 k Phi^2 (a compliant element, `Constraint::spring`; the springs of
 //! `solver::simulator::springs` carry it, implicit in the Newmark step).
@@ -13,9 +14,9 @@
 //! the elastic energy booked, and the energy balance shows it (measured in
 //! tests/compliant_elements.rs: 3.4e-2, 4.4e-3, 7.3e-3 and 2.1e-3 of the
 //! work at 16, 31, 63 and 125 steps per contact time, not monotone). The
-//! force is not clamped to push only: while the overrun closes faster than
-//! k Phi / c the damper pulls (a sticky contact), as Hunt-Crossley's
-//! contact law would not.
+//! contact only pushes (`ElementSpring::unilateral`): where the overrun
+//! closes faster than k Phi / c the damper would pull the sleeve back into
+//! the stop, and the force is 0 instead.
 //! With each sleeve's stroke sized to the lengths its deployment takes, a bay
 //! can neither fold tighter than that nor shear the wrong way past it.
 
@@ -95,6 +96,7 @@ impl Constraint for EndStop {
             rows: 1,
             stiffness_n_per_m: self.stop.0,
             damping_n_s_per_m: self.stop.1,
+            unilateral: true,
         })
     }
     fn residual(&self, x: &[f64], out: &mut [f64]) {

@@ -164,6 +164,11 @@ pub struct ElementSpring {
     pub rows: usize,
     pub stiffness_n_per_m: f64,
     pub damping_n_s_per_m: f64,
+    /// A contact that only pushes: a row's force f = k Phi + c A Xdot acts
+    /// only where it has the sign of Phi (the overrun); where the damper
+    /// would pull the members back into the contact it is 0 (an end stop
+    /// separating faster than k Phi / c). False: a spring both ways (gears).
+    pub unilateral: bool,
 }
 
 /// A constraint macroelement. Rows are the element's own equations; `jacobian`

@@ -77,6 +77,7 @@ impl Constraint for SyncHinge {
             rows: self.axes.len(),
             stiffness_n_per_m: k,
             damping_n_s_per_m: c,
+            unilateral: false,
         })
     }
     fn residual(&self, x: &[f64], out: &mut [f64]) {

@@ -24,6 +24,18 @@ struct SpringWork {
     jac: Vec<f64>,
 }
 
+/// A spring row's force f = k Phi + c A Xdot (N; the force on the joints is
+/// -A^T f); a unilateral row (a contact) only pushes: 0 where f and Phi
+/// differ in sign (the damper would pull the members back into the contact).
+fn row_force(spring: &ElementSpring, phi: f64, rate: f64) -> f64 {
+    let f = spring.stiffness_n_per_m * phi + spring.damping_n_s_per_m * rate;
+    if spring.unilateral && f * phi <= 0.0 {
+        0.0
+    } else {
+        f
+    }
+}
+
 /// Every compliant element of a model.
 #[derive(Debug, Default)]
 pub(super) struct ElementSprings {
@@ -110,9 +122,8 @@ impl ElementSprings {
         for w in &self.work {
             let joints = model.elements[w.element].joints();
             let width = 3 * joints.len();
-            let (k, c) = (w.spring.stiffness_n_per_m, w.spring.damping_n_s_per_m);
-            for (r, (phi, rate)) in w.phi.iter().zip(&w.rate).enumerate() {
-                let f = k * phi + c * rate;
+            for (r, (&phi, &rate)) in w.phi.iter().zip(&w.rate).enumerate() {
+                let f = row_force(&w.spring, phi, rate);
                 for (col, a) in w.jac[r * width..(r + 1) * width].iter().enumerate() {
                     q[3 * joints[col / 3] + col % 3] -= f * a;
                 }
@@ -125,7 +136,8 @@ impl ElementSprings {
     ///     dQ = -A^T (k A dX + c A dV) = -(k h^2/4 + c h/2) A^T A dA,
     /// at the Jacobian of the last force evaluation (the geometric term
     /// (dA^T/dX) (k Phi + c A Xdot) is left out: this is the Newton
-    /// direction's derivative, whose residual is exact).
+    /// direction's derivative, whose residual is exact); a unilateral row
+    /// whose force was 0 there adds none.
     pub fn add_force_derivative(&self, model: &Model, h: f64, da: &[f64], dq: &mut [f64]) {
         for w in &self.work {
             let joints = model.elements[w.element].joints();
@@ -133,6 +145,9 @@ impl ElementSprings {
             let (k, c) = (w.spring.stiffness_n_per_m, w.spring.damping_n_s_per_m);
             let gain = 0.25 * h * h * k + 0.5 * h * c;
             for r in 0..w.spring.rows {
+                if w.spring.unilateral && row_force(&w.spring, w.phi[r], w.rate[r]) == 0.0 {
+                    continue;
+                }
                 let row = &w.jac[r * width..(r + 1) * width];
                 let rate: f64 = row
                     .iter()
@@ -149,7 +164,9 @@ impl ElementSprings {
     /// Over a move of the joints from (x0, v0) to (x1, v1): the change of the
     /// springs' elastic energy, sum 1/2 k (|Phi_1|^2 - |Phi_0|^2) (exact), and
     /// the dampers' dissipation, sum c 1/2 (rate_0 + rate_1) . (Phi_1 - Phi_0)
-    /// (the trapezoid, as the joint damping's) (J).
+    /// (the trapezoid, as the joint damping's) (J); on a unilateral row the
+    /// damper's force is what the contact adds to the spring's, f - k Phi
+    /// (-k Phi where the contact lets go), by the same trapezoid.
     pub fn book_move(
         &mut self,
         model: &Model,
@@ -167,7 +184,13 @@ impl ElementSprings {
             for r in 0..w.phi.len() {
                 let (p0, p1) = (w.phi_before[r], w.phi[r]);
                 elastic_j += 0.5 * k * (p1 * p1 - p0 * p0);
-                damper_j += c * 0.5 * (w.rate_before[r] + w.rate[r]) * (p1 - p0);
+                damper_j += if w.spring.unilateral {
+                    let f0 = row_force(&w.spring, p0, w.rate_before[r]) - k * p0;
+                    let f1 = row_force(&w.spring, p1, w.rate[r]) - k * p1;
+                    0.5 * (f0 + f1) * (p1 - p0)
+                } else {
+                    c * 0.5 * (w.rate_before[r] + w.rate[r]) * (p1 - p0)
+                };
             }
         }
         (elastic_j, damper_j)
