@@ -20,9 +20,13 @@ fn main() {
 
 fn run() -> Result<(), String> {
     let mut args = std::env::args().skip(1);
-    let path = args.next().ok_or("usage: near_singular MODEL.toml [COUNT]")?;
+    let path = args
+        .next()
+        .ok_or("usage: near_singular MODEL.toml [COUNT]")?;
     let count: usize = match args.next() {
-        Some(c) => c.parse().map_err(|_| format!("COUNT `{c}`: give a whole number"))?,
+        Some(c) => c
+            .parse()
+            .map_err(|_| format!("COUNT `{c}`: give a whole number"))?,
         None => 12,
     };
     let load = || {
@@ -71,7 +75,10 @@ fn run() -> Result<(), String> {
         let cols = (0..a.ncols())
             .map(|c| {
                 let axis = ["x", "y", "z"][c % 3];
-                (v_t[(i, c)].abs(), format!("{}_{axis}", model.joints[c / 3].name))
+                (
+                    v_t[(i, c)].abs(),
+                    format!("{}_{axis}", model.joints[c / 3].name),
+                )
             })
             .collect();
         println!(

@@ -558,12 +558,18 @@ fn generate_ring_gear_and_stroke_stop_options() {
     assert_success(&o, "generate ring --inner-chord-m");
     let m = truss_deploy::model::load(&out).unwrap().model;
     let xd = m.reference.as_ref().unwrap();
-    let (a, b) = (m.joint_index("I0_t").unwrap(), m.joint_index("I1_t").unwrap());
+    let (a, b) = (
+        m.joint_index("I0_t").unwrap(),
+        m.joint_index("I1_t").unwrap(),
+    );
     let chord = (0..3)
         .map(|k| (xd[3 * a + k] - xd[3 * b + k]).powi(2))
         .sum::<f64>()
         .sqrt();
-    assert!((chord - ci).abs() < 1e-12, "inner chord {chord} against {ci}");
+    assert!(
+        (chord - ci).abs() < 1e-12,
+        "inner chord {chord} against {ci}"
+    );
     assert!(((0.8757 - ci) / (2.0 * s36) - 0.5 * (0.8757 + ci)).abs() < 1e-12);
     for (args, phrase) in [
         (
@@ -579,7 +585,10 @@ fn generate_ring_gear_and_stroke_stop_options() {
         (vec!["--stroke-stops", "-1"], "--stroke-stops -1"),
         (vec!["--inner-chord-m", "0.9"], "--inner-chord-m 0.9"),
         (vec!["--inner-chord-m", "-0.5"], "--inner-chord-m -0.5"),
-        (vec!["--sync", "--inner-chord-m", "NaN"], "--inner-chord-m NaN"),
+        (
+            vec!["--sync", "--inner-chord-m", "NaN"],
+            "--inner-chord-m NaN",
+        ),
     ] {
         let mut all = vec!["generate", "ring", "-o"];
         let o_path = d.join("bad.toml").display().to_string();

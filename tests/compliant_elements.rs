@@ -192,18 +192,31 @@ fn end_stop_overrun(h: f64) -> (f64, f64, f64) {
     )
 }
 
-#[test]
-fn an_end_stop_takes_the_overrun_of_the_closed_form() {
+/// `run(h)` = (simulated, closed form, energy balance) at each step h: the
+/// relative errors against the closed form and the balances, printed.
+fn at_steps(
+    what: &str,
+    steps: [f64; 4],
+    run: impl Fn(f64) -> (f64, f64, f64),
+) -> (Vec<f64>, Vec<f64>) {
     let (mut errs, mut balances) = (Vec::new(), Vec::new());
-    for h in [1e-3, 5e-4, 2.5e-4, 1.25e-4] {
-        let (delta, exact, balance) = end_stop_overrun(h);
-        println!(
-            "h {h:e}: overrun {delta:.6e} m, closed form {exact:.6e} m, balance {balance:.2e}"
-        );
-        errs.push((delta - exact).abs() / exact);
+    for h in steps {
+        let (got, exact, balance) = run(h);
+        println!("h {h:e}: {what} {got:.6e}, closed form {exact:.6e}, balance {balance:.2e}");
+        errs.push((got - exact).abs() / exact);
         balances.push(balance);
     }
     println!("relative errors {errs:?}, balances {balances:?}");
+    (errs, balances)
+}
+
+#[test]
+fn an_end_stop_takes_the_overrun_of_the_closed_form() {
+    let (errs, balances) = at_steps(
+        "overrun (m)",
+        [1e-3, 5e-4, 2.5e-4, 1.25e-4],
+        end_stop_overrun,
+    );
     assert!(errs.windows(2).all(|w| w[1] < w[0]), "{errs:?}");
     assert!(errs[3] < 1e-3, "{errs:?}");
     // The stop's onset falls inside a step, where the trapezoid's work on the
@@ -253,7 +266,11 @@ fn end_stop_restitution(h: f64) -> (f64, f64, f64) {
     }
     let v_in = v_in.expect("reached the stop");
     let s = sim.state();
-    assert!(s.x[3 * b] > end + 1e-3, "B did not come back out: {}", s.x[3 * b]);
+    assert!(
+        s.x[3 * b] > end + 1e-3,
+        "B did not come back out: {}",
+        s.x[3 * b]
+    );
     let v_out = s.v[3 * b];
     let w = (k / m).sqrt();
     let z = c / (2.0 * (k * m).sqrt());
@@ -272,14 +289,11 @@ fn end_stop_restitution(h: f64) -> (f64, f64, f64) {
 
 #[test]
 fn a_damped_end_stop_lets_go_where_its_force_falls_to_zero() {
-    let (mut errs, mut balances) = (Vec::new(), Vec::new());
-    for h in [4e-4, 2e-4, 1e-4, 5e-5] {
-        let (e, exact, balance) = end_stop_restitution(h);
-        println!("h {h:e}: restitution {e:.6}, closed form {exact:.6}, balance {balance:.2e}");
-        errs.push((e - exact).abs() / exact);
-        balances.push(balance);
-    }
-    println!("relative errors {errs:?}, balances {balances:?}");
+    let (errs, balances) = at_steps(
+        "restitution",
+        [4e-4, 2e-4, 1e-4, 5e-5],
+        end_stop_restitution,
+    );
     // the sticky answer is 0.163 against 0.298: far outside these
     assert!(errs[3] < 1e-2 && errs[3] < errs[0], "{errs:?}");
     // the onset and the release fall inside steps (not located): the

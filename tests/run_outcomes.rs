@@ -735,7 +735,11 @@ fn a_sleeve_held_short_by_a_latch_stops_the_run_naming_it() {
     assert!(!msg.contains("is held"), "{msg}");
     assert!(s["time_s"].as_f64().unwrap() > 20.0, "{s}");
     assert!(
-        s["locks"].as_array().unwrap().iter().any(|l| l["name"] == "s3"),
+        s["locks"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|l| l["name"] == "s3"),
         "{s}"
     );
     assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));

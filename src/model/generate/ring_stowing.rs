@@ -174,7 +174,11 @@ pub fn raised_fold(p: &RingParams, phi: f64) -> Result<(f64, f64), String> {
         // (the fold's root is the first of two that leave x = 0 together,
         // about 0.1 ph apart at 18 sides and 18/n as far on n sides: the scan
         // starts at a step below that spacing, or it steps over both)
-        let mut dx = if ph < 1e-3 { 0.01 * ph } else { 1e-4f64.min(1e-3 * ph) };
+        let mut dx = if ph < 1e-3 {
+            0.01 * ph
+        } else {
+            1e-4f64.min(1e-3 * ph)
+        };
         let mut hi = lo + dx;
         while (f(hi) > 0.0) == (f_lo > 0.0) {
             dx *= 1.5;
