@@ -185,6 +185,18 @@ fn simulate_mast_deploys() {
     assert!(num(&s, "energy_balance_rel_error") <= 1e-5, "{s:#}");
     let steps = s["steps"].as_u64().expect("steps");
     assert!(steps > 0);
+    // the summary's solver line carries the JSON's counts
+    let st = &s["solver_stats"];
+    let line = format!(
+        "solver           {} sub-steps ({} halvings), {} constraint solves ({} unconverged)",
+        st["substeps"],
+        st["fallbacks"]["substep_halvings"],
+        st["solves"],
+        st["fallbacks"]["solve_unconverged"]
+    );
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains(&line), "`{line}` not in:\n{out}");
+    assert!(!out.contains("did not converge"), "{out}");
     let deploy = num(&s, "deploy_time_s");
     assert!(deploy > 0.0 && deploy <= num(&s, "time_s"), "{s:#}");
 

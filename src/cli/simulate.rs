@@ -550,6 +550,23 @@ fn print_summary(s: &SimulateJson) {
         s.dof_initial,
         s.dof_final
     );
+    let st = &s.solver_stats;
+    say!(
+        "solver           {} sub-steps ({} halvings), {} constraint solves ({} unconverged)",
+        st.substeps,
+        st.fallbacks.substep_halvings,
+        st.solves,
+        st.fallbacks.solve_unconverged
+    );
+    if st.fallbacks.solve_unconverged * 10 > st.solves {
+        // (the run's checks still hold: balance, |Phi|; what suffers is the time)
+        say!(
+            "                 more than a tenth of the solves did not converge: the constraints \
+             are nearly redundant here (a configuration close to singular, such as a ring's \
+             last bays near flat; `cargo run --release --example near_singular` on a restart, \
+             docs/double_ring_stowing.md Session 9), which is what makes such a run slow"
+        );
+    }
     if !s.locks.is_empty() {
         say!(
             "\n{:<16} {:>14} {:>14} {:>16} {:>14} {:>14} {:>14}",
