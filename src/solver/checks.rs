@@ -323,7 +323,7 @@ impl HeldShortWatch {
         // A latch holds once it is rigid: at its event for a rigid latch,
         // when its transient settles for a compliant one (its event came
         // earlier), so the rigid set is what is watched, not the events.
-        let rigid = state.locked.iter().filter(|&&l| l).count();
+        let rigid = state.locks_engaged(model);
         if rigid != self.latches && state.mechanisms > 0 {
             self.latches = rigid;
             let by = state
