@@ -601,13 +601,45 @@ fn generate_ring_gear_and_stroke_stop_options() {
             vec!["--sync", "--inner-chord-m", "NaN"],
             "--inner-chord-m NaN",
         ),
+        (
+            vec!["--latch-capture-m", "-0.001"],
+            "--latch-capture-m -0.001",
+        ),
+        (
+            vec!["--latch-capture-m", "1e-4", "--latch-stiffness", "2e5"],
+            "not with --latch-stiffness",
+        ),
+        (
+            vec!["mast", "--inner-chord-m", "0.7"],
+            "--inner-chord-m is an option of `generate ring`, not of `generate mast`",
+        ),
+        (
+            vec!["sail", "--latch-capture-m", "1e-4"],
+            "--latch-capture-m is an option of `generate ring`, not of `generate sail`",
+        ),
     ] {
-        let mut all = vec!["generate", "ring", "-o"];
+        // (a kind first replaces `ring`)
+        let kind = ["mast", "sail"].into_iter().find(|k| args[0] == *k);
+        let mut all = vec!["generate", kind.unwrap_or("ring"), "-o"];
         let o_path = d.join("bad.toml").display().to_string();
         all.push(&o_path);
-        all.extend(args.iter());
+        all.extend(args.iter().skip(usize::from(kind.is_some())));
         let o = run(&all);
         assert_input_error(&o, &format!("{args:?}"), &[phrase], true);
         assert!(!d.join("bad.toml").exists());
     }
+    // --latch-capture-m: every sleeve (all rigid) gets the capture range
+    let out = d.join("r_capture.toml");
+    let o = run(&[
+        "generate",
+        "ring",
+        "--latch-capture-m",
+        "2e-4",
+        "-o",
+        &out.display().to_string(),
+    ]);
+    assert_success(&o, "generate ring --latch-capture-m");
+    let text = std::fs::read_to_string(&out).unwrap();
+    assert_eq!(text.matches("type = \"sleeve\"").count(), 54);
+    assert_eq!(text.matches("capture_range_m = 0.0002\n").count(), 54);
 }

@@ -340,3 +340,119 @@ fn an_end_stop_needs_a_stroke_a_stiffness_and_a_start_inside() {
         assert!(err.contains(says), "`{says}` not in: {err}");
     }
 }
+
+/// A latch's capture range (a chamfered latch pin). The gear oscillator
+/// above, overdamped (zeta 2), creeps from z0 toward z = 0; a sleeve from
+/// the held joint C one metre below A latches at 1 - g0, so its gap
+/// z + g0 never reaches 0 and without a capture range it never latches. With
+/// range r it latches at the end of the first step at which the gap is
+/// within r: z(t*) = r - g0 in the closed form
+///     z = (s1 e^(s2 t) - s2 e^(s1 t)) z0 / (s1 - s2), s1,2 = -w (zeta -+ sqrt(zeta^2 - 1)),
+/// A is put at z = -g0 (the projection, its spring work booked) and stopped
+/// (one degree of freedom: impulse m |z'(t)|). Returns (latch time,
+/// impulse, z after, closing rate before, energy balance) or None.
+fn captured_creep(r: f64, h: f64) -> Option<(f64, f64, f64, f64, f64)> {
+    let (m, k, c, z0, g0) = (0.25, 100.0, 20.0, 0.01, 5e-5);
+    let text = format!(
+        "{}[[joint]]\nname = \"C\"\nposition_m = [0.5, 0.3, -1.0]\nmass_kg = 1.0\n\
+         [[element]]\ntype = \"support\"\nname = \"C_held\"\njoints = [\"C\"]\nfix = \"xyz\"\n\
+         [[element]]\ntype = \"sleeve\"\nname = \"S\"\njoints = [\"C\", \"A\"]\n\
+         lock_length_m = {}\ncapture_range_m = {r}\n",
+        oscillator(m, k, c, z0),
+        1.0 - g0
+    );
+    let model = parse(&text, "creep.toml").unwrap().model;
+    let a = model.joint_index("A").unwrap();
+    let mut sim = Simulator::new(model, Options::default()).unwrap();
+    for _ in 0..(3.0 / h).round() as usize {
+        sim.step(h).unwrap();
+        if !sim.state().locks.is_empty() {
+            break;
+        }
+    }
+    let s = sim.state();
+    let balance = s.energy.balance_rel_error(s.kinetic_energy_j(sim.model()));
+    let latch = s.locks.first()?;
+    assert_eq!(s.locks.len(), 1);
+    assert_eq!(sim.solver_stats().latch_range_captures, 1);
+    Some((
+        latch.time_s,
+        latch.impulse_ns,
+        s.x[3 * a + 2],
+        latch.closing_speed_m_s,
+        balance,
+    ))
+}
+
+#[test]
+fn a_latch_catches_a_sleeve_within_its_capture_range_at_a_step_end() {
+    let (m, k, c, z0, g0, r, h): (f64, f64, f64, f64, f64, f64, f64) =
+        (0.25, 100.0, 20.0, 0.01, 5e-5, 1e-4, 0.01);
+    let w = (k / m).sqrt();
+    let zeta = c / (2.0 * (k * m).sqrt());
+    let root = (zeta * zeta - 1.0).sqrt();
+    let (s1, s2) = (-w * (zeta - root), -w * (zeta + root));
+    let z = |t: f64| (s1 * (s2 * t).exp() - s2 * (s1 * t).exp()) * z0 / (s1 - s2);
+    let zdot = |t: f64| s1 * s2 * ((s2 * t).exp() - (s1 * t).exp()) * z0 / (s1 - s2);
+    // t*: z(t*) = r - g0 by bisection (z falls monotonically, overdamped)
+    let (mut lo, mut hi) = (0.0, 3.0);
+    for _ in 0..200 {
+        let mid = 0.5 * (lo + hi);
+        if z(mid) > r - g0 {
+            lo = mid
+        } else {
+            hi = mid
+        }
+    }
+    let t_star = hi;
+    let first_step_end = (t_star / h).ceil() * h;
+    // without a capture range, or with one shorter than the gap left at
+    // rest (g0), the sleeve never latches
+    assert_eq!(captured_creep(0.0, h), None);
+    assert_eq!(captured_creep(0.8 * g0, h), None);
+    let (t_latch, impulse, z_after, rate, balance) = captured_creep(r, h).expect("a capture");
+    println!(
+        "t* {t_star:.6} s, first step end {first_step_end:.6} s, latched at {t_latch:.6} s; \
+         impulse {impulse:.6e} N s against m |z'| {:.6e}; z after {z_after:.3e}; rate {rate:.3e}; \
+         balance {balance:.2e}",
+        m * zdot(t_latch).abs()
+    );
+    assert!(
+        (t_latch - first_step_end).abs() < 1e-9,
+        "{t_latch} vs {first_step_end}"
+    );
+    assert!((z_after + g0).abs() < 1e-12, "{z_after}");
+    // the step's Newmark error on z' (second order at w h = 0.2)
+    assert!(
+        ((impulse - m * zdot(t_latch).abs()) / impulse).abs() < 1e-2,
+        "{impulse} vs {}",
+        m * zdot(t_latch).abs()
+    );
+    assert!(rate < 0.0, "closing: {rate}");
+    assert!(balance < 1e-6, "{balance:e}");
+}
+
+#[test]
+fn a_capture_range_is_for_a_rigid_latch_and_shorter_than_the_sleeve() {
+    let base = "[model]\nname = \"c\"\n[[joint]]\nname = \"A\"\nposition_m = [0.0, 0.0, 0.0]\n\
+                mass_kg = 1.0\n[[joint]]\nname = \"B\"\nposition_m = [1.0, 0.0, 0.0]\nmass_kg = 1.0\n\
+                [[element]]\ntype = \"sleeve\"\nname = \"S\"\njoints = [\"A\", \"B\"]\nlock_length_m = 0.9\n";
+    assert!(parse(&format!("{base}capture_range_m = 1e-3\n"), "c.toml").is_ok());
+    for (extra, says) in [
+        ("capture_range_m = -1e-3\n", "capture_range_m"),
+        ("capture_range_m = 0.95\n", "below `lock_length_m`"),
+        (
+            "capture_range_m = 1e-3\nlatch_stiffness_n_per_m = 1e5\n",
+            "rigid latch",
+        ),
+    ] {
+        let err = parse(&format!("{base}{extra}"), "c.toml")
+            .err()
+            .unwrap_or_else(|| panic!("{extra} was accepted"))
+            .to_string();
+        assert!(
+            err.contains(says) && err.contains("c.toml"),
+            "{extra}: {err}"
+        );
+    }
+}

@@ -150,6 +150,12 @@ struct GenerateArgs {
     /// gives c_o (1 - sin(pi/n)) / (1 + sin(pi/n)) (0.7353 m at 36; see docs/double_ring_stowing.md).
     #[arg(long, allow_negative_numbers = true)]
     inner_chord_m: Option<f64>,
+    /// ring: capture range of the rigid latches (m; default 0, none): a sleeve within it of its
+    /// lock at the end of a step latches there, as a chamfered latch pin catches it (each
+    /// sleeve's `capture_range_m`). For rings whose last bays come to rest a hair short of flat
+    /// (36 sides; see docs/double_ring_stowing.md).
+    #[arg(long, allow_negative_numbers = true)]
+    latch_capture_m: Option<f64>,
 }
 
 #[derive(Args, Debug)]
@@ -489,6 +495,26 @@ fn analyze(a: AnalyzeArgs) -> Result<(), Failure> {
 
 fn generate_cmd(a: GenerateArgs) -> Result<(), Failure> {
     output::check_outputs(&[], &[("-o", a.output.as_path())])?;
+    // (options of the ring alone: a mast or sail would silently ignore them)
+    let ring_only = [
+        ("--sync", a.sync.is_some()),
+        ("--stow", a.stow),
+        ("--bay-by-bay", a.bay_by_bay),
+        ("--mount", a.mount.is_some()),
+        ("--gear-stiffness", a.gear_stiffness.is_some()),
+        ("--gear-damping", a.gear_damping.is_some()),
+        ("--stroke-stops", a.stroke_stops.is_some()),
+        ("--stroke-stop-damping", a.stroke_stop_damping.is_some()),
+        ("--inner-chord-m", a.inner_chord_m.is_some()),
+        ("--latch-capture-m", a.latch_capture_m.is_some()),
+    ];
+    if let (false, Some((name, _))) = (matches!(a.kind, Kind::Ring), ring_only.iter().find(|o| o.1))
+    {
+        return Err(Failure::input(format!(
+            "{name} is an option of `generate ring`, not of `generate {}`",
+            format!("{:?}", a.kind).to_lowercase()
+        )));
+    }
     let doc = match a.kind {
         Kind::Mast => {
             let d = generate::MastParams::default();
@@ -539,8 +565,17 @@ fn generate_cmd(a: GenerateArgs) -> Result<(), Failure> {
                 start_deg: a.start_deg.unwrap_or(d.start_deg),
                 inner_chord_m: a.inner_chord_m.unwrap_or(d.inner_chord_m),
                 latch: latch_option(&a)?,
+                latch_capture_m: a.latch_capture_m.unwrap_or(d.latch_capture_m),
                 ..d
             };
+            if let Some(r) = a.latch_capture_m {
+                if !(r.is_finite() && r >= 0.0) || p.latch.is_some() {
+                    return Err(Failure::input(format!(
+                        "--latch-capture-m {r}: give a finite length >= 0 (m), for rigid latches \
+                         (not with --latch-stiffness)"
+                    )));
+                }
+            }
             if let Some(ci) = a.inner_chord_m {
                 if !(ci.is_finite() && ci > 0.0 && ci < p.outer_chord_m) {
                     return Err(Failure::input(format!(

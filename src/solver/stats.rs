@@ -41,6 +41,9 @@ pub struct SolverStats {
     pub latch_search_steps: u64,
     /// Sleeves latched (rigid, or compliant latches engaging).
     pub latches: u64,
+    /// ... of which latched at a step's end within their latch's capture
+    /// range (`capture_range_m` of a sleeve: a chamfered latch pin).
+    pub latch_range_captures: u64,
     /// Compliant latches that engaged, and the sub-steps spent resolving
     /// their transients.
     pub compliant_latches: u64,
@@ -92,6 +95,10 @@ pub struct Fallbacks {
     /// A sleeve closing on its lock from within `latch_capture_m` latched
     /// where it stood after a failed sub-step (see `SolverSettings`).
     pub latch_captured: u64,
+    /// A capture within a latch's capture range was refused: its projection
+    /// failed or moved a joint farther than `latch_capture_max_move_m`
+    /// (the sleeves stay free and are tried again after the next step).
+    pub latch_range_refused: u64,
     /// The accelerations' fixed point with cable inertia stopped at its iteration limit.
     pub consistent_unconverged: u64,
     /// A compliant latch turned rigid at `latch_max_periods` without having
@@ -114,11 +121,11 @@ impl SolverStats {
             "{} steps, {} sub-steps, {} Newmark steps ({:.2} iterations each), \
              {} Newton steps ({} GMRES iterations, {} backtracks), \
              {} factorizations ({} reused, {} probes), {} solves ({:.2} iterations each), \
-             {} latch searches ({} trial steps), {} latches; fallbacks: {} halvings ({} at blend entries), \
+             {} latch searches ({} trial steps), {} latches ({} within a capture range); fallbacks: {} halvings ({} at blend entries), \
              {} Newton switches ({} failed), {} Newmark min-norm, {} lagged friction, {} projection min-norm, {} velocity min-norm, \
              {} refactored, {} re-probed, {} least-squares, {} unconverged solves, \
              {} dips rejected ({} checks failed), {} root searches at their limit ({} search steps redone with basic solves), \
-             {} latches captured after a failed sub-step, \
+             {} latches captured after a failed sub-step, {} capture-range latches refused, \
              {} inertia fixed points unconverged, {} latches unsettled at their limit, \
              {} compliant latches with no compliance",
             self.steps,
@@ -136,6 +143,7 @@ impl SolverStats {
             self.latch_searches,
             self.latch_search_steps,
             self.latches,
+            self.latch_range_captures,
             f.substep_halvings,
             f.blend_entry_halvings,
             f.newmark_newton,
@@ -153,6 +161,7 @@ impl SolverStats {
             f.root_search_limit,
             f.latch_search_basic,
             f.latch_captured,
+            f.latch_range_refused,
             f.consistent_unconverged,
             f.latch_unsettled,
             f.latch_without_compliance,

@@ -339,14 +339,60 @@ impl Simulator {
         if !self.capture(&closing)? {
             return Err(error);
         }
+        self.core.stats.fallbacks.latch_captured += closing.len() as u64;
         let swept = self.capture_swept()?;
         self.check_nothing_missed()?;
         Ok(closing.len() + swept)
     }
 
+    /// Stage `events` at the end of a step: the unlatched rigid sleeves
+    /// within their latch's capture range of their lock
+    /// (`Constraint::capture_range_m`, a chamfered latch pin) latch where
+    /// they stand, all at once (counted as `latch_range_captures`): the
+    /// projection onto their lock lengths is booked as work and the
+    /// velocity jump as their latch impulse, as at any latch, at the step's
+    /// end time. Where that projection fails or moves a joint farther than
+    /// `latch_capture_max_move_m` (near a singular configuration), the one
+    /// nearest its lock is tried alone; refused too, the sleeves stay free
+    /// (counted as `latch_range_refused`) and are tried again after the next
+    /// step. Returns how many latched.
+    pub(super) fn capture_in_range(&mut self) -> Result<usize, SolverError> {
+        let model = &self.model;
+        let in_range = |e: &usize| {
+            let r = model.elements[*e].capture_range_m();
+            r > 0.0 && gap(model, *e, &self.state.x).abs() <= r
+        };
+        if !self.capturable().any(|e| in_range(&e)) {
+            return Ok(0);
+        }
+        let mut elements: Vec<usize> = self.capturable().filter(in_range).collect();
+        self.x_start.copy_from_slice(&self.state.x);
+        if !self.capture(&elements)? {
+            let nearest = elements
+                .iter()
+                .copied()
+                .min_by(|&a, &b| {
+                    let g = |e| gap(&self.model, e, &self.state.x).abs();
+                    g(a).total_cmp(&g(b))
+                })
+                .into_iter()
+                .collect::<Vec<_>>();
+            if elements.len() == 1 || !self.capture(&nearest)? {
+                self.core.stats.fallbacks.latch_range_refused += 1;
+                return Ok(0);
+            }
+            elements = nearest;
+        }
+        self.core.stats.latch_range_captures += elements.len() as u64;
+        let swept = self.capture_swept()?;
+        self.check_nothing_missed()?;
+        Ok(elements.len() + swept)
+    }
+
     /// After a latch: the rigid-latching sleeves that the latch's projection
     /// carried past their lock (between `x_start` and the state) by at most
-    /// `latch_capture_m` latch at the same instant (counted as
+    /// `latch_capture_m`, or their latch's capture range, latch at the same
+    /// instant (counted as
     /// `latch_captured`): near the flat state the last sleeves reach their
     /// locks within microseconds, and projecting onto one latch's row moves
     /// the others by as much. Repeated until none is left (each round
@@ -360,7 +406,8 @@ impl Simulator {
                 .capturable()
                 .filter(|&e| {
                     let (g0, g1) = (gap(model, e, &self.x_start), gap(model, e, &s.x));
-                    g0 != 0.0 && g0 * g1 < 0.0 && g1.abs() > tol && g1.abs() <= capture
+                    let range = capture.max(model.elements[e].capture_range_m());
+                    g0 != 0.0 && g0 * g1 < 0.0 && g1.abs() > tol && g1.abs() <= range
                 })
                 .collect();
             if swept.is_empty() {
@@ -369,6 +416,7 @@ impl Simulator {
             if !self.capture(&swept)? {
                 return Ok(total);
             }
+            self.core.stats.fallbacks.latch_captured += swept.len() as u64;
             total += swept.len();
         }
     }
@@ -382,7 +430,8 @@ impl Simulator {
         })
     }
 
-    /// Latches `elements` rigid where they stand (a capture), unless its
+    /// Latches `elements` rigid where they stand (a capture; the caller
+    /// counts it), unless its
     /// projection fails or moves a joint farther than `latch_capture_max_move_m`: near a singular
     /// configuration the projection onto a latch's row can move the joints
     /// far from where the motion had them, which would be a latch the
@@ -407,7 +456,6 @@ impl Simulator {
             self.undo_capture(saved, elements.len());
             return Ok(false);
         }
-        self.core.stats.fallbacks.latch_captured += elements.len() as u64;
         Ok(true)
     }
 

@@ -338,6 +338,7 @@ impl Simulator {
             h_try = (2.0 * h_try).min(dt);
         }
         self.state.t_s = t_end.max(self.state.t_s);
+        events += self.capture_in_range()?;
         self.state.steps += 1;
         self.core.stats.steps += 1;
         Ok(events)
