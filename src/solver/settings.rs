@@ -98,6 +98,16 @@ pub struct SolverSettings {
     pub min_substep_fraction: f64,
     /// Sub-steps and latch events one step may take before it is reported.
     pub max_substeps: usize,
+    /// A trial sub-step whose energy ledger misses (kinetic energy change
+    /// against the work booked over it) by more than this fraction of the
+    /// energy that flowed in it is halved (a counted fallback): a Newmark
+    /// solution that made energy no force accounts for, as a solve that
+    /// converged to a wrong motion near a singular configuration does. The
+    /// trapezoid's own error is a small fraction of the flow.
+    pub substep_energy_rel: f64,
+    /// ... and by more than this fraction of the run's energy scale
+    /// (`Energy::scale_j`), below which a miss is roundoff.
+    pub substep_energy_floor_rel: f64,
     /// A step is complete when less than this fraction of it remains.
     pub step_end_rel: f64,
     /// Fixed-point iterations of the accelerations with cable inertia where a
@@ -194,6 +204,8 @@ impl Default for SolverSettings {
             blend_change_rel: 0.25,
             min_substep_fraction: 1.0 / 1024.0,
             max_substeps: 10_000,
+            substep_energy_rel: 0.5,
+            substep_energy_floor_rel: 1e-9,
             step_end_rel: 1e-12,
             consistent_max_iterations: 20,
             consistent_tol_rel: 1e-13,
@@ -251,6 +263,8 @@ impl SolverSettings {
             ("newmark_newton_curvature", self.newmark_newton_curvature),
             ("blend_change_rel", self.blend_change_rel),
             ("min_substep_fraction", self.min_substep_fraction),
+            ("substep_energy_rel", self.substep_energy_rel),
+            ("substep_energy_floor_rel", self.substep_energy_floor_rel),
             ("step_end_rel", self.step_end_rel),
             ("consistent_tol_rel", self.consistent_tol_rel),
             ("lock_tol_m", self.lock_tol_m),

@@ -94,15 +94,19 @@ impl Energy {
             - self.latch_damping_loss_j
             - self.latch_spring_energy_j
             - self.element_spring_energy_j;
-        // (elastic energy compliant elements gained or gave up flowed too)
-        let scale = self
-            .motor_work_j
+        (kinetic_j - net).abs() / self.scale_j(kinetic_j)
+    }
+
+    /// The energy the balance is measured against (J): the largest of the
+    /// motor's and gravity's work, the kinetic energy and the compliant
+    /// elements' elastic energy (which flowed too).
+    pub fn scale_j(&self, kinetic_j: f64) -> f64 {
+        self.motor_work_j
             .abs()
             .max(self.gravity_work_j.abs())
             .max(kinetic_j)
             .max(self.element_spring_energy_j.abs())
-            .max(1e-300);
-        (kinetic_j - net).abs() / scale
+            .max(1e-300)
     }
 }
 

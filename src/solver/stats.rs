@@ -58,6 +58,9 @@ pub struct Fallbacks {
     /// A sub-step that needed Newton steps went through the friction's fast
     /// transient in the blend and was halved to resolve it (`blend_change_rel`).
     pub blend_entry_halvings: u64,
+    /// A trial sub-step made or lost energy no force accounts for
+    /// (`substep_energy_rel`) and was halved.
+    pub substep_energy_halvings: u64,
     /// A Newmark iteration that stopped contracting went on with Newton steps.
     pub newmark_newton: u64,
     /// ... whose line search gave up (`newmark_newton_line_search_max`,
@@ -121,7 +124,7 @@ impl SolverStats {
             "{} steps, {} sub-steps, {} Newmark steps ({:.2} iterations each), \
              {} Newton steps ({} GMRES iterations, {} backtracks), \
              {} factorizations ({} reused, {} probes), {} solves ({:.2} iterations each), \
-             {} latch searches ({} trial steps), {} latches ({} within a capture range); fallbacks: {} halvings ({} at blend entries), \
+             {} latch searches ({} trial steps), {} latches ({} within a capture range); fallbacks: {} halvings ({} at blend entries, {} for energy), \
              {} Newton switches ({} failed), {} Newmark min-norm, {} lagged friction, {} projection min-norm, {} velocity min-norm, \
              {} refactored, {} re-probed, {} least-squares, {} unconverged solves, \
              {} dips rejected ({} checks failed), {} root searches at their limit ({} search steps redone with basic solves), \
@@ -146,6 +149,7 @@ impl SolverStats {
             self.latch_range_captures,
             f.substep_halvings,
             f.blend_entry_halvings,
+            f.substep_energy_halvings,
             f.newmark_newton,
             f.newmark_newton_failed,
             f.newmark_min_norm,

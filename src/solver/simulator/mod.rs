@@ -324,6 +324,11 @@ impl Simulator {
                 h_try = 0.5 * h;
                 continue;
             }
+            if self.made_energy(h, dt) {
+                self.core.stats.fallbacks.substep_energy_halvings += 1;
+                h_try = 0.5 * h;
+                continue;
+            }
             // (a failure that left the state as it was: in a latch search;
             // one after the state moved on, in a latch's own projection, stands)
             let before = self.state_mark();
@@ -342,6 +347,24 @@ impl Simulator {
         self.state.steps += 1;
         self.core.stats.steps += 1;
         Ok(events)
+    }
+
+    /// Whether the trial sub-step of length h (not yet the shortest) made or
+    /// lost energy that no force accounts for: its ledger residual beyond
+    /// `substep_energy_rel` of the energy that flowed in it and beyond
+    /// `substep_energy_floor_rel` of the run's energy scale (stage
+    /// `ledger`). Compliant latches' transients are not checked here (the
+    /// run's balance check covers them).
+    fn made_energy(&mut self, h: f64, dt: f64) -> bool {
+        let st = &self.settings;
+        if h <= dt * st.min_substep_fraction || !self.state.transients.is_empty() {
+            return false;
+        }
+        let (rel, floor_rel) = (st.substep_energy_rel, st.substep_energy_floor_rel);
+        let ke = self.state.kinetic_energy_j(&self.model);
+        let scale_j = self.state.energy.scale_j(ke);
+        let (residual, flow) = self.trial_energy_residual_j();
+        residual.abs() > rel * flow && residual.abs() > floor_rel * scale_j
     }
 
     /// What a sub-step changes of the state before it fails, if anything:
