@@ -143,12 +143,7 @@ pub struct State {
 
 impl State {
     pub fn kinetic_energy_j(&self, model: &Model) -> f64 {
-        0.5 * self
-            .v
-            .iter()
-            .zip(&model.mass)
-            .map(|(v, m)| m * v * v)
-            .sum::<f64>()
+        kinetic_energy_j(model, &self.v)
     }
     /// Max distance of any joint from the reference, over the largest reference dimension.
     pub fn final_error_rel(&self, model: &Model) -> Option<f64> {
@@ -189,4 +184,13 @@ impl State {
     pub fn locks_engaged(&self, model: &Model) -> usize {
         model.locks.iter().filter(|&&e| self.locked[e]).count()
     }
+}
+
+/// Kinetic energy 1/2 sum m_i v_i^2 of the velocities `v` (J).
+pub fn kinetic_energy_j(model: &Model, v: &[f64]) -> f64 {
+    0.5 * v
+        .iter()
+        .zip(&model.mass)
+        .map(|(v, m)| m * v * v)
+        .sum::<f64>()
 }

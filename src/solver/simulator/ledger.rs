@@ -15,7 +15,7 @@ use super::impact::track_transient;
 use super::Simulator;
 use crate::solver::cable::CableEval;
 use crate::solver::model::Model;
-use crate::solver::state::Energy;
+use crate::solver::state::{kinetic_energy_j, Energy};
 
 impl Simulator {
     /// Commits the trial step of length h to the state, with the energy ledger.
@@ -101,8 +101,7 @@ impl Simulator {
             &c.x,
         );
         let damping_j = damping_loss_j(m, (&s.x, &s.v), (&c.x, &c.v));
-        let ke = |v: &[f64]| 0.5 * v.iter().zip(&m.mass).map(|(v, m)| m * v * v).sum::<f64>();
-        let d_kinetic_j = ke(&c.v) - ke(&s.v);
+        let d_kinetic_j = kinetic_energy_j(m, &c.v) - kinetic_energy_j(m, &s.v);
         let residual = d_kinetic_j - (work_j - damping_j - elastic_j - damper_j);
         let flow = d_kinetic_j.abs()
             + work_j.abs()
