@@ -352,24 +352,8 @@ fn an_end_stop_needs_a_stroke_a_stiffness_and_a_start_inside() {
 /// (one degree of freedom: impulse m |z'(t)|). Returns (latch time,
 /// impulse, z after, closing rate before, energy balance) or None.
 fn captured_creep(r: f64, h: f64) -> Option<(f64, f64, f64, f64, f64)> {
-    let (m, k, c, z0, g0) = (0.25, 100.0, 20.0, 0.01, 5e-5);
-    let text = format!(
-        "{}[[joint]]\nname = \"C\"\nposition_m = [0.5, 0.3, -1.0]\nmass_kg = 1.0\n\
-         [[element]]\ntype = \"support\"\nname = \"C_held\"\njoints = [\"C\"]\nfix = \"xyz\"\n\
-         [[element]]\ntype = \"sleeve\"\nname = \"S\"\njoints = [\"C\", \"A\"]\n\
-         lock_length_m = {}\ncapture_range_m = {r}\n",
-        oscillator(m, k, c, z0),
-        1.0 - g0
-    );
-    let model = parse(&text, "creep.toml").unwrap().model;
-    let a = model.joint_index("A").unwrap();
-    let mut sim = Simulator::new(model, Options::default()).unwrap();
-    for _ in 0..(3.0 / h).round() as usize {
-        sim.step(h).unwrap();
-        if !sim.state().locks.is_empty() {
-            break;
-        }
-    }
+    let sim = creep_until_latched(&creep(r), h);
+    let a = sim.model().joint_index("A").unwrap();
     let s = sim.state();
     let balance = s.energy.balance_rel_error(s.kinetic_energy_j(sim.model()));
     let latch = s.locks.first()?;
@@ -429,6 +413,77 @@ fn a_latch_catches_a_sleeve_within_its_capture_range_at_a_step_end() {
         m * zdot(t_latch).abs()
     );
     assert!(rate < 0.0, "closing: {rate}");
+    assert!(balance < 1e-6, "{balance:e}");
+}
+
+/// The creep model of `captured_creep`: the gear oscillator (m 0.25 kg,
+/// k 100 N/m, c 20 N s/m, z0 0.01 m) and the sleeve S from C, latching at
+/// z = -5e-5 m, capture range r.
+fn creep(r: f64) -> String {
+    format!(
+        "{}[[joint]]\nname = \"C\"\nposition_m = [0.5, 0.3, -1.0]\nmass_kg = 1.0\n\
+         [[element]]\ntype = \"support\"\nname = \"C_held\"\njoints = [\"C\"]\nfix = \"xyz\"\n\
+         [[element]]\ntype = \"sleeve\"\nname = \"S\"\njoints = [\"C\", \"A\"]\n\
+         lock_length_m = {}\ncapture_range_m = {r}\n",
+        oscillator(0.25, 100.0, 20.0, 0.01),
+        1.0 - 5e-5
+    )
+}
+
+/// Steps `text` at h until its first latch (at most 3 s).
+fn creep_until_latched(text: &str, h: f64) -> Simulator {
+    let model = parse(text, "creep.toml").unwrap().model;
+    let mut sim = Simulator::new(model, Options::default()).unwrap();
+    for _ in 0..(3.0 / h).round() as usize {
+        sim.step(h).unwrap();
+        if !sim.state().locks.is_empty() {
+            break;
+        }
+    }
+    sim
+}
+
+/// A capture's projection carries another sleeve past its lock: that one
+/// latches in the same capture. The creep above, with a follower joint D
+/// 0.5 m below A, held in x and y and free in z (no force on it), and a
+/// sleeve F from D to A without a capture range that latches at length
+/// 0.5 - 2e-5 m, i.e. at z_A = -2e-5 m with D where it starts: the creep
+/// never gets there (it rests at z_A = 0), but S's capture puts A at
+/// z_A = -5e-5 m, 3e-5 m past F's lock (farther than the failure path's
+/// `latch_capture_m`, 1e-5 m). Both latch at the same instant, their rows
+/// taken together: A at -5e-5 m (S), D at z_A - (0.5 - 2e-5) = -0.5 - 3e-5 m
+/// (F; two rows, two free coordinates, so the closed form is exact), and F's
+/// impulse 0 (D was at rest; A is stopped by S).
+#[test]
+fn a_capture_latches_the_sleeves_its_projection_carries_past_their_lock() {
+    let text = format!(
+        "{}[[joint]]\nname = \"D\"\nposition_m = [0.5, 0.3, -0.5]\nmass_kg = 1.0\n\
+         [[element]]\ntype = \"support\"\nname = \"D_xy\"\njoints = [\"D\"]\nfix = \"xy\"\n\
+         [[element]]\ntype = \"sleeve\"\nname = \"F\"\njoints = [\"D\", \"A\"]\n\
+         lock_length_m = {}\n",
+        creep(1e-4),
+        0.5 - 2e-5
+    );
+    let sim = creep_until_latched(&text, 0.01);
+    let (s, model) = (sim.state(), sim.model());
+    let (a, d) = (
+        model.joint_index("A").unwrap(),
+        model.joint_index("D").unwrap(),
+    );
+    let names: Vec<&str> = s.locks.iter().map(|l| l.name.as_str()).collect();
+    assert_eq!(names, ["S", "F"], "{:?}", s.locks);
+    assert_eq!(s.locks[0].time_s, s.locks[1].time_s);
+    assert!((s.x[3 * a + 2] + 5e-5).abs() < 1e-12, "{}", s.x[3 * a + 2]);
+    assert!(
+        (s.x[3 * d + 2] + 0.5 + 3e-5).abs() < 1e-12,
+        "{}",
+        s.x[3 * d + 2]
+    );
+    assert!(s.locks[1].impulse_ns < 1e-12, "{:?}", s.locks[1]);
+    let stats = sim.solver_stats();
+    assert_eq!(stats.latch_range_captures, 1);
+    assert_eq!(stats.fallbacks.latch_captured, 1);
+    let balance = s.energy.balance_rel_error(s.kinetic_energy_j(model));
     assert!(balance < 1e-6, "{balance:e}");
 }
 

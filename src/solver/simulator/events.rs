@@ -336,13 +336,12 @@ impl Simulator {
             return Err(error);
         }
         self.x_start.copy_from_slice(&self.state.x);
-        if !self.capture(&closing)? {
+        let Some(latched) = self.capture(&closing)? else {
             return Err(error);
-        }
-        self.core.stats.fallbacks.latch_captured += closing.len() as u64;
-        let swept = self.capture_swept()?;
+        };
+        self.core.stats.fallbacks.latch_captured += latched as u64;
         self.check_nothing_missed()?;
-        Ok(closing.len() + swept)
+        Ok(latched)
     }
 
     /// Stage `events` at the end of a step: the unlatched rigid sleeves
@@ -365,28 +364,24 @@ impl Simulator {
         if !self.capturable().any(|e| in_range(&e)) {
             return Ok(0);
         }
-        let mut elements: Vec<usize> = self.capturable().filter(in_range).collect();
+        let elements: Vec<usize> = self.capturable().filter(in_range).collect();
         self.x_start.copy_from_slice(&self.state.x);
-        if !self.capture(&elements)? {
-            let nearest = elements
-                .iter()
-                .copied()
-                .min_by(|&a, &b| {
-                    let g = |e| gap(&self.model, e, &self.state.x).abs();
-                    g(a).total_cmp(&g(b))
-                })
-                .into_iter()
-                .collect::<Vec<_>>();
-            if elements.len() == 1 || !self.capture(&nearest)? {
-                self.core.stats.fallbacks.latch_range_refused += 1;
-                return Ok(0);
-            }
-            elements = nearest;
+        let mut captured = self.capture(&elements)?.map(|n| (elements.len(), n));
+        if captured.is_none() && elements.len() > 1 {
+            let nearest = elements.iter().copied().min_by(|&a, &b| {
+                let g = |e| gap(&self.model, e, &self.state.x).abs();
+                g(a).total_cmp(&g(b))
+            });
+            captured = self.capture(&Vec::from_iter(nearest))?.map(|n| (1, n));
         }
-        self.core.stats.latch_range_captures += elements.len() as u64;
-        let swept = self.capture_swept()?;
+        let Some((in_range, latched)) = captured else {
+            self.core.stats.fallbacks.latch_range_refused += 1;
+            return Ok(0);
+        };
+        self.core.stats.latch_range_captures += in_range as u64;
+        self.core.stats.fallbacks.latch_captured += (latched - in_range) as u64;
         self.check_nothing_missed()?;
-        Ok(elements.len() + swept)
+        Ok(latched)
     }
 
     /// After a latch: the rigid-latching sleeves that the latch's projection
@@ -413,11 +408,11 @@ impl Simulator {
             if swept.is_empty() {
                 return Ok(total);
             }
-            if !self.capture(&swept)? {
+            let Some(latched) = self.capture(&swept)? else {
                 return Ok(total);
-            }
-            self.core.stats.fallbacks.latch_captured += swept.len() as u64;
-            total += swept.len();
+            };
+            self.core.stats.fallbacks.latch_captured += latched as u64;
+            total += latched;
         }
     }
 
@@ -431,32 +426,54 @@ impl Simulator {
     }
 
     /// Latches `elements` rigid where they stand (a capture; the caller
-    /// counts it), unless its
-    /// projection fails or moves a joint farther than `latch_capture_max_move_m`: near a singular
-    /// configuration the projection onto a latch's row can move the joints
-    /// far from where the motion had them, which would be a latch the
-    /// dynamics never reached; the state is then restored and false
-    /// returned (the failure that asked for the capture stands). The copy of
-    /// the state is made only here, on a failure path.
-    fn capture(&mut self, elements: &[usize]) -> Result<bool, SolverError> {
+    /// counts it), together with every capturable sleeve that their
+    /// projection would carry past its lock: those reach their end of
+    /// stroke within the same closing motion, so all latch at once, the
+    /// projection and the velocity jump taken with all their rows (the set
+    /// grows and the latch is redone from the saved state until no sleeve
+    /// is carried past; each round adds one at least). Refused, with the
+    /// state restored, where the projection fails or moves a joint farther
+    /// than `latch_capture_max_move_m`: near a singular configuration the
+    /// projection onto a latch's row can move the joints far from where the
+    /// motion had them, which would be a latch the dynamics never reached
+    /// (the failure that asked for the capture stands). Returns how many
+    /// latched, None if refused. The copy of the state is made only here,
+    /// on a capture path.
+    fn capture(&mut self, elements: &[usize]) -> Result<Option<usize>, SolverError> {
         let saved = self.state.clone();
         let t = self.state.t_s;
-        if self.latch_rigid(elements, &|_| t).is_err() {
-            // (the latch's own projection failed there: as too far a move)
-            self.undo_capture(saved, 0);
-            return Ok(false);
+        let tol = self.settings.lock_tol_m;
+        let mut set = elements.to_vec();
+        loop {
+            if self.latch_rigid(&set, &|_| t).is_err() {
+                // (the latch's own projection failed there: as too far a move)
+                self.undo_capture(saved, 0);
+                return Ok(None);
+            }
+            let moved_m = saved
+                .x
+                .iter()
+                .zip(&self.state.x)
+                .map(|(a, b)| (a - b).abs())
+                .fold(0.0, f64::max);
+            if moved_m > self.settings.latch_capture_max_move_m {
+                self.undo_capture(saved, set.len());
+                return Ok(None);
+            }
+            let (model, x) = (&self.model, &self.state.x);
+            let carried: Vec<usize> = self
+                .capturable()
+                .filter(|&e| {
+                    let (g0, g1) = (gap(model, e, &saved.x), gap(model, e, x));
+                    g0 * g1 < 0.0 && g1.abs() > tol
+                })
+                .collect();
+            if carried.is_empty() {
+                return Ok(Some(set.len()));
+            }
+            self.undo_capture(saved.clone(), set.len());
+            set.extend(carried);
         }
-        let moved_m = saved
-            .x
-            .iter()
-            .zip(&self.state.x)
-            .map(|(a, b)| (a - b).abs())
-            .fold(0.0, f64::max);
-        if moved_m > self.settings.latch_capture_max_move_m {
-            self.undo_capture(saved, elements.len());
-            return Ok(false);
-        }
-        Ok(true)
     }
 
     /// Back to the state before a capture, with the Jacobian pattern of its
