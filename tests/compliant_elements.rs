@@ -511,3 +511,35 @@ fn a_capture_range_is_for_a_rigid_latch_and_shorter_than_the_sleeve() {
         );
     }
 }
+
+/// A truss that a capture leaves rigid latches, at the same instant, the
+/// sleeves the capture's projection put at their lock length. The creep of
+/// `captured_creep` (range 1e-4 m) with a second sleeve T from E, 0.1 m
+/// beside A in the plane z = -5e-5 m where S latches, lock length 0.1 m:
+/// its gap sqrt(0.01 + (z + 5e-5)^2) - 0.1 ~ 5e-8 m when the capture
+/// catches A near z = 5e-5 m, and it does not change sign as z falls. The
+/// capture puts A at z = -5e-5 m: A fixed (x, y held, z by S), the truss
+/// rigid, and T at its lock (gap 0 to roundoff), so T latches with S at
+/// the capture's instant, impulse 0 (the truss is at rest once S latched).
+#[test]
+fn a_truss_left_rigid_latches_the_sleeves_standing_at_their_lock() {
+    let text = format!(
+        "{}[[joint]]\nname = \"E\"\nposition_m = [0.6, 0.3, -5e-5]\nmass_kg = 1.0\n\
+         [[element]]\ntype = \"support\"\nname = \"E_held\"\njoints = [\"E\"]\nfix = \"xyz\"\n\
+         [[element]]\ntype = \"sleeve\"\nname = \"T\"\njoints = [\"E\", \"A\"]\nlock_length_m = 0.1\n",
+        creep(1e-4)
+    );
+    let sim = creep_until_latched(&text, 0.01);
+    let s = sim.state();
+    println!("{:?}", s.locks);
+    let names: Vec<&str> = s.locks.iter().map(|l| l.name.as_str()).collect();
+    assert_eq!(names, ["S", "T"]);
+    assert!(s.deployed);
+    let stats = sim.solver_stats();
+    assert_eq!(
+        (stats.latch_range_captures, stats.latched_at_rigidity),
+        (1, 1)
+    );
+    assert_eq!(s.locks[0].time_s, s.locks[1].time_s);
+    assert!(s.locks[1].impulse_ns < 1e-12, "{:?}", s.locks[1]);
+}

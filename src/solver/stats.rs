@@ -44,6 +44,9 @@ pub struct SolverStats {
     /// ... of which latched at a step's end within their latch's capture
     /// range (`capture_range_m` of a sleeve: a chamfered latch pin).
     pub latch_range_captures: u64,
+    /// ... of which latched at their lock length the instant other latches
+    /// left the truss rigid (redundant with those, impulse 0).
+    pub latched_at_rigidity: u64,
     /// Compliant latches that engaged, and the sub-steps spent resolving
     /// their transients.
     pub compliant_latches: u64,
@@ -124,7 +127,7 @@ impl SolverStats {
             "{} steps, {} sub-steps, {} Newmark steps ({:.2} iterations each), \
              {} Newton steps ({} GMRES iterations, {} backtracks), \
              {} factorizations ({} reused, {} probes), {} solves ({:.2} iterations each), \
-             {} latch searches ({} trial steps), {} latches ({} within a capture range); fallbacks: {} halvings ({} at blend entries, {} for energy), \
+             {} latch searches ({} trial steps), {} latches ({} within a capture range, {} at their lock once rigid); fallbacks: {} halvings ({} at blend entries, {} for energy), \
              {} Newton switches ({} failed), {} Newmark min-norm, {} lagged friction, {} projection min-norm, {} velocity min-norm, \
              {} refactored, {} re-probed, {} least-squares, {} unconverged solves, \
              {} dips rejected ({} checks failed), {} root searches at their limit ({} search steps redone with basic solves), \
@@ -147,6 +150,7 @@ impl SolverStats {
             self.latch_search_steps,
             self.latches,
             self.latch_range_captures,
+            self.latched_at_rigidity,
             f.substep_halvings,
             f.blend_entry_halvings,
             f.substep_energy_halvings,

@@ -440,6 +440,8 @@ impl Simulator {
     /// latched, None if refused. The copy of the state is made only here,
     /// on a capture path.
     fn capture(&mut self, elements: &[usize]) -> Result<Option<usize>, SolverError> {
+        let stats = &self.core.stats;
+        let latches = (stats.latches, stats.latched_at_rigidity);
         let saved = self.state.clone();
         let t = self.state.t_s;
         let tol = self.settings.lock_tol_m;
@@ -447,7 +449,7 @@ impl Simulator {
         loop {
             if self.latch_rigid(&set, &|_| t).is_err() {
                 // (the latch's own projection failed there: as too far a move)
-                self.undo_capture(saved, 0);
+                self.undo_capture(saved, latches);
                 return Ok(None);
             }
             let moved_m = saved
@@ -457,7 +459,7 @@ impl Simulator {
                 .map(|(a, b)| (a - b).abs())
                 .fold(0.0, f64::max);
             if moved_m > self.settings.latch_capture_max_move_m {
-                self.undo_capture(saved, set.len());
+                self.undo_capture(saved, latches);
                 return Ok(None);
             }
             let (model, x) = (&self.model, &self.state.x);
@@ -471,17 +473,18 @@ impl Simulator {
             if carried.is_empty() {
                 return Ok(Some(set.len()));
             }
-            self.undo_capture(saved.clone(), set.len());
+            self.undo_capture(saved.clone(), latches);
             set.extend(carried);
         }
     }
 
     /// Back to the state before a capture, with the Jacobian pattern of its
-    /// locked set and the latch count without the `latched` it made.
-    fn undo_capture(&mut self, saved: crate::solver::state::State, latched: usize) {
+    /// locked set and the latch counts it had (`latches`: all, and those
+    /// latched at their lock once rigid).
+    fn undo_capture(&mut self, saved: crate::solver::state::State, latches: (u64, u64)) {
         self.state = saved;
         self.core.set_pattern(&self.model, &self.state.locked);
-        self.core.stats.latches -= latched as u64;
+        (self.core.stats.latches, self.core.stats.latched_at_rigidity) = latches;
     }
 
     /// Another unlocked element whose gap has changed sign (beyond the latch
@@ -545,7 +548,8 @@ mod tests {
     /// where the sleeves are ~5e-6 m from their lock, a sub-step that fails
     /// there (the Newmark iteration allowed one iterate and no tolerance) captures the sleeve
     /// nearest its lock: one latch at t* - delta, counted, which stops the
-    /// one-mechanism mast too, taking the kinetic energy it had there (and
+    /// one-mechanism mast too (the other three, at their lock then, latch
+    /// with it at no impulse), taking the kinetic energy it had there (and
     /// the drive's work over the capture's move): the exact event's loss to
     /// within the drive's work over delta.
     #[test]
@@ -581,8 +585,16 @@ mod tests {
         // (after the capture the retry fails too, with nothing left closing)
         assert!(sim.step(dt).is_err());
         let s = sim.state();
-        assert_eq!(s.locks.len(), 1, "one capture");
+        // one capture; it leaves the one-mechanism mast rigid with the
+        // other three sleeves at their lock, which latch with it (impulse 0),
+        // all four at one instant as at the exact event
+        assert_eq!(s.locks.len(), 4, "{:?}", s.locks);
         assert_eq!(sim.core.stats.fallbacks.latch_captured, 1);
+        assert_eq!(sim.core.stats.latched_at_rigidity, 3);
+        assert!(s.locks.iter().all(|l| l.time_s == s.locks[0].time_s));
+        assert!(s.locks[1..]
+            .iter()
+            .all(|l| l.impulse_ns < 1e-12 * s.locks[0].impulse_ns));
         let capture = &s.locks[0];
         println!(
             "exact: t* {t_star:.9} s, loss {loss:.6e} J; captured `{}` at {:.9} s, loss {:.6e} J (kinetic there {ke:.6e} J)",

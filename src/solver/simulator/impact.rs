@@ -134,8 +134,48 @@ impl Simulator {
                 rigid_at_s: None,
             });
         }
+        self.latch_at_lock_once_rigid(elements, reached_s)?;
         self.stamp_deploy_time();
         Ok(())
+    }
+
+    /// A truss that these latches left rigid (deployed, sleeves still
+    /// unlatched): the rigid-latching sleeves standing at their lock length
+    /// (|gap| within `latch_tol_m`) latch at the same instant, the last of
+    /// `elements`' (their pins drop in where the motion stopped; their rows
+    /// are redundant with the others', the truss is at rest along them, so
+    /// their impulse is 0 and nothing moves; counted as
+    /// `latched_at_rigidity`). Those farther from their lock
+    /// stay open, as a jam (`checks::jammed`) reports them.
+    fn latch_at_lock_once_rigid(
+        &mut self,
+        elements: &[usize],
+        reached_s: &dyn Fn(usize) -> f64,
+    ) -> Result<(), SolverError> {
+        if !self.state.deployed || self.all_locked() {
+            return Ok(());
+        }
+        let (model, s, tol) = (&self.model, &self.state, self.settings.latch_tol_m());
+        let at_lock: Vec<usize> = model
+            .locks
+            .iter()
+            .copied()
+            .filter(|&e| {
+                !s.locked[e]
+                    && !self.engaged(e)
+                    && model.elements[e].latch_spring().is_none()
+                    && gap(model, e, &s.x).abs() <= tol
+            })
+            .collect();
+        if at_lock.is_empty() {
+            return Ok(());
+        }
+        let t = elements
+            .iter()
+            .map(|&e| reached_s(e))
+            .fold(f64::NEG_INFINITY, f64::max);
+        self.core.stats.latched_at_rigidity += at_lock.len() as u64;
+        self.latch_rigid(&at_lock, &|_| t)
     }
 
     /// The waiting compliant latches once no transient is left: those still
