@@ -239,13 +239,19 @@ fn the_bay_by_bay_ring_has_many_mechanisms_before_its_latches_and_none_after() {
 /// One deployment to full lock: every sleeve latched, with the figures the
 /// run must meet; returns (deploy time, outer bay k's latch time by k, the
 /// number of distinct latch instants, first and last latch).
-fn deploy_to_full_lock(model: Model) -> (f64, Vec<f64>, usize, f64, f64) {
+/// `until_s` bounds the run (simulated seconds), `max_captured` the latches
+/// captured after a failed sub-step or carried past their lock by a capture.
+fn deploy_to_full_lock(
+    model: Model,
+    until_s: f64,
+    max_captured: u64,
+) -> (f64, Vec<f64>, usize, f64, f64) {
     let dt = model.dt_s;
     let reference = model.reference.clone().unwrap();
     let mut sim = Simulator::new(model, Options::default()).unwrap();
-    // (bounded: 2000 s simulated, 40 000 steps)
+    // (bounded: until_s simulated, until_s / dt steps)
     while !sim.state().deployed {
-        assert!(sim.state().t_s < 2000.0, "not deployed by 2000 s");
+        assert!(sim.state().t_s < until_s, "not deployed by {until_s} s");
         sim.step(dt).unwrap();
     }
     let captured = sim.solver_stats().fallbacks.latch_captured;
@@ -258,8 +264,10 @@ fn deploy_to_full_lock(model: Model) -> (f64, Vec<f64>, usize, f64, f64) {
         "deployed at {t:.3} s, final error {final_error:.1e}, max |Phi| {:.1e} m, balance {balance:.1e}, {captured} latches captured",
         s.max_violation_m
     );
-    // (the capture is a fallback near the flat state: 0 and 1 measured)
-    assert!(captured <= 3, "{captured} latches captured");
+    assert!(
+        captured <= max_captured,
+        "{captured} latches captured (at most {max_captured})"
+    );
     assert!(final_error <= 1e-6, "final error {final_error}");
     assert!(s.max_violation_m <= 1e-9, "|Phi| {}", s.max_violation_m);
     assert!(balance <= 1e-4, "energy balance {balance}");
@@ -274,6 +282,7 @@ fn deploy_to_full_lock(model: Model) -> (f64, Vec<f64>, usize, f64, f64) {
         times.iter().copied().fold(f64::INFINITY, f64::min),
         times.iter().copied().fold(0.0, f64::max),
     );
+    assert_eq!(t, last, "the deploy time is the last latch's");
     let mut distinct: Vec<f64> = times.clone();
     distinct.sort_by(f64::total_cmp);
     distinct.dedup_by(|a, b| (*a - *b).abs() < 1e-6);
@@ -309,31 +318,19 @@ fn rank_correlation(times: &[f64]) -> f64 {
     num / den
 }
 
-/// The bundled ring deploys from its bundle to full lock, bay by bay: the
+/// A ring deploys from its bundle to full lock, bay by bay, at mu 0.005
+/// (`low`) and at four times the pulley friction (mu 0.02, `high`): the
 /// latches spread over more than 5 % of the deploy time at least sides/2
 /// distinct instants, the first bays to latch are the two the cable enters
-/// first (0 and 1, at the motor), and with four times the pulley friction
-/// (mu 0.02) the last bay lags the first by more and the order follows the
-/// cable more closely (rank correlation of latch time with position along
-/// the cable higher, and positive in both).
-#[test]
-fn the_bundled_ring_deploys_to_full_lock_bay_by_bay_and_friction_orders_it() {
-    let bundled = load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("models/double_ring.toml"))
-        .unwrap()
-        .model;
-    let sides = bundled.locks.len() / 3;
+/// first (0 and 1, at the motor), and at mu 0.02 the last bay lags the
+/// first by more and the order follows the cable more closely (rank
+/// correlation of latch time with position along the cable higher, and
+/// positive in both).
+fn friction_orders_the_bays(low: Model, high: Model, until_s: f64, max_captured: u64) {
+    let sides = low.locks.len() / 3;
     let mut runs = Vec::new();
-    for (mu, model) in [
-        (0.005, bundled),
-        (
-            0.02,
-            model_of(&RingParams {
-                friction_mu: 0.02,
-                ..RingParams::bay_by_bay()
-            }),
-        ),
-    ] {
-        let (t, bays, distinct, first, last) = deploy_to_full_lock(model);
+    for (mu, model) in [(0.005, low), (0.02, high)] {
+        let (t, bays, distinct, first, last) = deploy_to_full_lock(model, until_s, max_captured);
         let spread = (last - first) / t;
         let bay_lag = bays.iter().copied().fold(0.0, f64::max)
             - bays.iter().copied().fold(f64::INFINITY, f64::min);
@@ -362,4 +359,68 @@ fn the_bundled_ring_deploys_to_full_lock_bay_by_bay_and_friction_orders_it() {
         rho_high > rho_low,
         "rank correlation {rho_high} at mu 0.02 vs {rho_low}"
     );
+}
+
+/// The bundled ring (mu 0.005) and the same at mu 0.02 (the capture after a
+/// failed sub-step is a fallback near the flat state: 0 and 1 measured).
+#[test]
+fn the_bundled_ring_deploys_to_full_lock_bay_by_bay_and_friction_orders_it() {
+    let bundled = load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("models/double_ring.toml"))
+        .unwrap()
+        .model;
+    let high = model_of(&RingParams {
+        friction_mu: 0.02,
+        ..RingParams::bay_by_bay()
+    });
+    friction_orders_the_bays(bundled, high, 2000.0, 3);
+}
+
+/// The 36-sided ring as `generate ring --sides 36 --inner-chord-m 0.7353
+/// --stroke-stops 1e4 --gear-stiffness 1000 --latch-capture-m 6e-5 [--mu
+/// 0.02]` writes it (README, docs/double_ring_stowing.md, Session 11) does
+/// the same. About 7 minutes of release build per run:
+/// `cargo test --release --test bay_by_bay_ring -- --ignored`.
+#[test]
+#[ignore = "two runs of ~7 min each in release; cargo test --release --test bay_by_bay_ring -- --ignored"]
+fn a_36_sided_ring_deploys_to_full_lock_bay_by_bay_and_friction_orders_it() {
+    let p = |mu: f64| {
+        let d = RingParams::bay_by_bay();
+        let p = RingParams {
+            sides: 36,
+            inner_chord_m: 0.7353,
+            friction_mu: mu,
+            stroke_stop: Some(truss_deploy::model::generate::LatchParams {
+                stiffness_n_per_m: 1e4,
+                damping_n_s_per_m: 50.0,
+            }),
+            gear: truss_deploy::model::generate::LatchParams {
+                stiffness_n_per_m: 1000.0,
+                ..d.gear
+            },
+            latch_capture_m: 6e-5,
+            ..d
+        };
+        // the model is the command line's, byte for byte
+        let out = std::env::temp_dir().join(format!("ring36_{mu}_{}.toml", std::process::id()));
+        let status = std::process::Command::new(env!("CARGO_BIN_EXE_truss-deploy"))
+            .args([
+                "generate",
+                "ring",
+                "--sides",
+                "36",
+                "--inner-chord-m",
+                "0.7353",
+            ])
+            .args(["--stroke-stops", "1e4", "--gear-stiffness", "1000"])
+            .args(["--latch-capture-m", "6e-5", "--mu", &mu.to_string(), "-o"])
+            .arg(&out)
+            .status()
+            .unwrap();
+        assert!(status.success());
+        let written = std::fs::read_to_string(&out).unwrap();
+        std::fs::remove_file(&out).unwrap();
+        assert_eq!(written, ring(&p).unwrap().to_toml());
+        model_of(&p)
+    };
+    friction_orders_the_bays(p(0.005), p(0.02), 6000.0, 20);
 }

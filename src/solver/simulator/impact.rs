@@ -211,16 +211,20 @@ impl Simulator {
     }
 
     /// Once deployed: the deploy time is the instant the last latch engaged
-    /// or reached its lock (compliant latches turn rigid later).
+    /// or reached its lock (compliant latches turn rigid later), also of a
+    /// latch after the truss turned rigid (near a singular configuration
+    /// the rank test finds it rigid while the last sleeves still close on
+    /// their locks by second-order motion, and captures latch them at the
+    /// step's end).
     fn stamp_deploy_time(&mut self) {
         let s = &mut self.state;
-        if s.deployed && s.deploy_time_s.is_none() {
-            s.deploy_time_s = Some(
-                s.locks
-                    .iter()
-                    .map(|l| l.time_s)
-                    .fold(f64::NEG_INFINITY, f64::max),
-            );
+        if s.deployed {
+            let last = s
+                .locks
+                .iter()
+                .map(|l| l.time_s)
+                .fold(f64::NEG_INFINITY, f64::max);
+            s.deploy_time_s = Some(s.deploy_time_s.map_or(last, |t| t.max(last)));
         }
     }
 
