@@ -74,6 +74,19 @@ impl Jacobian {
         }
     }
 
+    /// The element of the first block with a non-finite value (for the
+    /// error that names it).
+    pub fn non_finite_element(&self) -> Option<usize> {
+        self.blocks
+            .iter()
+            .find(|b| {
+                self.values[b.offset..b.offset + b.rows * Self::width(b)]
+                    .iter()
+                    .any(|v| !v.is_finite())
+            })
+            .map(|b| b.element)
+    }
+
     pub fn residual(&self, model: &Model, x: &[f64], out: &mut [f64]) {
         for b in &self.blocks {
             model.elements[b.element].residual(x, &mut out[b.row0..b.row0 + b.rows]);
@@ -153,5 +166,26 @@ impl Jacobian {
             .find(|b| row >= b.row0 && row < b.row0 + b.rows)
             .expect("row in range");
         (b.element, row - b.row0)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Jacobian;
+    use crate::model::generate::{self, MastParams};
+
+    /// The element named for a non-finite Jacobian is the one whose block
+    /// holds the value; none while every value is finite.
+    #[test]
+    fn a_non_finite_value_is_found_in_its_elements_block() {
+        let text = generate::mast(&MastParams::default()).unwrap().to_toml();
+        let m = crate::model::parse(&text, "mast.toml").unwrap().model;
+        let mut jac = Jacobian::pattern(&m, &vec![false; m.elements.len()]);
+        jac.fill(&m, &m.x0);
+        assert_eq!(jac.non_finite_element(), None);
+        let b = &jac.blocks[jac.blocks.len() / 2];
+        let (element, at) = (b.element, b.offset + b.rows * Jacobian::width(b) - 1);
+        jac.values[at] = f64::NAN;
+        assert_eq!(jac.non_finite_element(), Some(element));
     }
 }

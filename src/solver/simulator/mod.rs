@@ -272,8 +272,37 @@ impl Simulator {
     }
 
     /// Advances the state by exactly `dt` seconds, latching elements on the
-    /// way. Returns the number of latch events in this step.
+    /// way. Returns the number of latch events in this step. A non-finite
+    /// constraint Jacobian names the element whose rows it is in.
     pub fn step(&mut self, dt: f64) -> Result<usize, SolverError> {
+        self.step_stages(dt).map_err(|e| match e {
+            SolverError::NonFinite(what) if what == "constraint Jacobian" => {
+                let m = &self.model;
+                SolverError::NonFinite(match self.core.jac.non_finite_element() {
+                    Some(e) => format!(
+                        "constraint Jacobian, in the rows of {} `{}` (joints {})",
+                        m.elements[e].kind(),
+                        m.elements[e].name(),
+                        m.elements[e]
+                            .joints()
+                            .iter()
+                            .map(|&j| m.joints[j].name.as_str())
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    ),
+                    // (finite entries whose products overflowed)
+                    None => format!(
+                        "{what}'s products (its entries overflowed: the iteration diverged)"
+                    ),
+                })
+            }
+            e => e,
+        })
+    }
+
+    /// `step`'s stages: sub-steps (integrator, events, impact, ledger) to
+    /// the step's end, then the capture ranges.
+    fn step_stages(&mut self, dt: f64) -> Result<usize, SolverError> {
         if !(dt.is_finite() && dt > 0.0) {
             return Err(SolverError::Invalid(format!(
                 "time step {dt} s must be positive and finite"
@@ -304,10 +333,13 @@ impl Simulator {
             match self.core.newmark(&self.model, &self.state, h, st, base) {
                 // (a projection that fails at the trial is retried shorter too:
                 // near a singular configuration the shorter step stays nearer
-                // the manifold)
-                Err(SolverError::NoConvergence { .. } | SolverError::Projection { .. })
-                    if h > dt * st.min_substep_fraction =>
-                {
+                // the manifold; so is a trial whose iterates diverged to
+                // non-finite values from the finite accepted state)
+                Err(
+                    SolverError::NoConvergence { .. }
+                    | SolverError::Projection { .. }
+                    | SolverError::NonFinite(_),
+                ) if h > dt * st.min_substep_fraction => {
                     self.core.stats.fallbacks.substep_halvings += 1;
                     h_try = 0.5 * h;
                     continue;
