@@ -521,15 +521,48 @@ fn a_capture_range_is_for_a_rigid_latch_and_shorter_than_the_sleeve() {
 /// capture puts A at z = -5e-5 m: A fixed (x, y held, z by S), the truss
 /// rigid, and T at its lock (gap 0 to roundoff), so T latches with S at
 /// the capture's instant, impulse 0 (the truss is at rest once S latched).
-#[test]
-fn a_truss_left_rigid_latches_the_sleeves_standing_at_their_lock() {
-    let text = format!(
+fn beside_the_creep(t_lock_length_m: f64) -> String {
+    format!(
         "{}[[joint]]\nname = \"E\"\nposition_m = [0.6, 0.3, -5e-5]\nmass_kg = 1.0\n\
          [[element]]\ntype = \"support\"\nname = \"E_held\"\njoints = [\"E\"]\nfix = \"xyz\"\n\
-         [[element]]\ntype = \"sleeve\"\nname = \"T\"\njoints = [\"E\", \"A\"]\nlock_length_m = 0.1\n",
+         [[element]]\ntype = \"sleeve\"\nname = \"T\"\njoints = [\"E\", \"A\"]\n\
+         lock_length_m = {t_lock_length_m}\n",
         creep(1e-4)
-    );
-    let sim = creep_until_latched(&text, 0.01);
+    )
+}
+
+/// The same with T's lock short of where the capture puts it by g, within
+/// the latch tolerance but not 0, so that its row contradicts the rigid
+/// truss's by g: S's capture stands, and T latches only if the rows still
+/// hold to the projection's accept limit (1e-9 m). At g = 5e-10 m (default
+/// tolerance 1e-9 m) the least-squares projection spreads it below the
+/// limit and T latches; at g = 5e-7 m (`lock_tol_m` raised to 1e-6 m) it
+/// cannot, and T stays open (the state restored: |Phi| within the limit).
+#[test]
+fn a_sleeve_nearly_at_its_lock_in_a_rigid_truss_does_not_undo_the_latch_that_made_it_rigid() {
+    for (g, tol, t_latches) in [(5e-10, None, true), (5e-7, Some(1e-6), false)] {
+        let mut text = beside_the_creep(0.1 - g);
+        if let Some(tol) = tol {
+            text += &format!("[solver]\nlock_tol_m = {tol}\n");
+        }
+        let sim = creep_until_latched(&text, 0.01);
+        let s = sim.state();
+        println!("g {g:e}: {:?}, max |Phi| {:e}", s.locks, s.max_violation_m);
+        assert_eq!(s.locks[0].name, "S");
+        assert!(s.deployed);
+        assert!(s.max_violation_m <= 1e-9, "{}", s.max_violation_m);
+        assert_eq!(s.locks.len(), 1 + t_latches as usize, "g {g:e}");
+        assert_eq!(
+            sim.solver_stats().latched_at_rigidity,
+            t_latches as u64,
+            "g {g:e}"
+        );
+    }
+}
+
+#[test]
+fn a_truss_left_rigid_latches_the_sleeves_standing_at_their_lock() {
+    let sim = creep_until_latched(&beside_the_creep(0.1), 0.01);
     let s = sim.state();
     println!("{:?}", s.locks);
     let names: Vec<&str> = s.locks.iter().map(|l| l.name.as_str()).collect();

@@ -74,17 +74,17 @@ impl Jacobian {
         }
     }
 
-    /// The element of the first block with a non-finite value (for the
-    /// error that names it).
-    pub fn non_finite_element(&self) -> Option<usize> {
-        self.blocks
-            .iter()
-            .find(|b| {
-                self.values[b.offset..b.offset + b.rows * Self::width(b)]
-                    .iter()
-                    .any(|v| !v.is_finite())
-            })
-            .map(|b| b.element)
+    /// The element of the first block with a non-finite value, and how many
+    /// blocks have one (for the error that names it: after a diverged
+    /// iteration most blocks do, and the first is not the cause).
+    pub fn non_finite_element(&self) -> Option<(usize, usize)> {
+        let mut bad = self.blocks.iter().filter(|b| {
+            self.values[b.offset..b.offset + b.rows * Self::width(b)]
+                .iter()
+                .any(|v| !v.is_finite())
+        });
+        let first = bad.next()?.element;
+        Some((first, 1 + bad.count()))
     }
 
     pub fn residual(&self, model: &Model, x: &[f64], out: &mut [f64]) {
@@ -186,6 +186,6 @@ mod tests {
         let b = &jac.blocks[jac.blocks.len() / 2];
         let (element, at) = (b.element, b.offset + b.rows * Jacobian::width(b) - 1);
         jac.values[at] = f64::NAN;
-        assert_eq!(jac.non_finite_element(), Some(element));
+        assert_eq!(jac.non_finite_element(), Some((element, 1)));
     }
 }

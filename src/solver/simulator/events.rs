@@ -384,14 +384,15 @@ impl Simulator {
         Ok(latched)
     }
 
-    /// After a latch: the rigid-latching sleeves that the latch's projection
-    /// carried past their lock (between `x_start` and the state) by at most
-    /// `latch_capture_m`, or their latch's capture range, latch at the same
-    /// instant (counted as
-    /// `latch_captured`): near the flat state the last sleeves reach their
-    /// locks within microseconds, and projecting onto one latch's row moves
-    /// the others by as much. Repeated until none is left (each round
-    /// latches at least one). Farther past, `check_nothing_missed` stands.
+    /// After an exact latch: the rigid-latching sleeves that the latch's
+    /// projection carried past their lock (between `x_start` and the state)
+    /// by at most `latch_capture_m`, or their latch's capture range, latch at
+    /// the same instant (counted as `latch_captured`; `capture` adds any
+    /// others its own projection carries past, however far, within its move
+    /// limit): near the flat state the last sleeves reach their locks within
+    /// microseconds, and projecting onto one latch's row moves the others by
+    /// as much. Repeated until none is left (each round latches at least
+    /// one). Farther past, `check_nothing_missed` stands.
     pub(super) fn capture_swept(&mut self) -> Result<usize, SolverError> {
         let mut total = 0;
         loop {

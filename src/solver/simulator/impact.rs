@@ -146,7 +146,11 @@ impl Simulator {
     /// are redundant with the others', the truss is at rest along them, so
     /// their impulse is 0 and nothing moves; counted as
     /// `latched_at_rigidity`). Those farther from their lock
-    /// stay open, as a jam (`checks::jammed`) reports them.
+    /// stay open, as a jam (`checks::jammed`) reports them. Best effort: a
+    /// gap within the tolerance but not 0 makes the rows of a truss that is
+    /// truly rigid contradict each other by as much, and where the latch's
+    /// projection fails on that, the state is restored and they stay open
+    /// (the latch that left the truss rigid stands).
     fn latch_at_lock_once_rigid(
         &mut self,
         elements: &[usize],
@@ -170,12 +174,27 @@ impl Simulator {
         if at_lock.is_empty() {
             return Ok(());
         }
+        // (the instant of the latches that made it rigid; the state's time
+        // where none is given, after compliant latches turned rigid)
         let t = elements
             .iter()
             .map(|&e| reached_s(e))
-            .fold(f64::NEG_INFINITY, f64::max);
-        self.core.stats.latched_at_rigidity += at_lock.len() as u64;
-        self.latch_rigid(&at_lock, &|_| t)
+            .fold(f64::NEG_INFINITY, f64::max)
+            .max(if elements.is_empty() {
+                self.state.t_s
+            } else {
+                f64::NEG_INFINITY
+            });
+        let (saved, latches) = (self.state.clone(), self.core.stats.latches);
+        match self.latch_rigid(&at_lock, &|_| t) {
+            Ok(()) => self.core.stats.latched_at_rigidity += at_lock.len() as u64,
+            Err(_) => {
+                self.state = saved;
+                self.core.set_pattern(&self.model, &self.state.locked);
+                self.core.stats.latches = latches;
+            }
+        }
+        Ok(())
     }
 
     /// The waiting compliant latches once no transient is left: those still
@@ -415,6 +434,7 @@ impl Simulator {
         // (the waiting latches' events first: they may have reached their
         // lock after the last engagement)
         let waited = self.latch_waiting()?;
+        self.latch_at_lock_once_rigid(&[], &|_| t)?;
         self.stamp_deploy_time();
         Ok(due.len() + waited)
     }

@@ -279,7 +279,7 @@ impl Simulator {
             SolverError::NonFinite(what) if what == "constraint Jacobian" => {
                 let m = &self.model;
                 SolverError::NonFinite(match self.core.jac.non_finite_element() {
-                    Some(e) => format!(
+                    Some((e, 1)) => format!(
                         "constraint Jacobian, in the rows of {} `{}` (joints {})",
                         m.elements[e].kind(),
                         m.elements[e].name(),
@@ -289,6 +289,12 @@ impl Simulator {
                             .map(|&j| m.joints[j].name.as_str())
                             .collect::<Vec<_>>()
                             .join(", ")
+                    ),
+                    Some((e, n)) => format!(
+                        "constraint Jacobian, in the rows of {n} elements, the first {} `{}` \
+                         (the iteration diverged)",
+                        m.elements[e].kind(),
+                        m.elements[e].name()
                     ),
                     // (finite entries whose products overflowed)
                     None => format!(
