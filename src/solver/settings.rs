@@ -108,6 +108,13 @@ pub struct SolverSettings {
     /// ... and by more than this fraction of the run's energy scale
     /// (`Energy::scale_j`), below which a miss is roundoff.
     pub substep_energy_floor_rel: f64,
+    /// A trial sub-step across the contact onset or release of a unilateral
+    /// spring (an end stop: `Constraint::contact_distance_m` changes sign) is
+    /// cut to end this fraction of its length past the crossing (the
+    /// distance interpolated linearly), so that no sub-step integrates the
+    /// trapezoid across the force's kink; a crossing within this fraction
+    /// of the trial's end, or a cut below the shortest sub-step, is not cut.
+    pub contact_cut_rel: f64,
     /// A step is complete when less than this fraction of it remains.
     pub step_end_rel: f64,
     /// Fixed-point iterations of the accelerations with cable inertia where a
@@ -206,6 +213,7 @@ impl Default for SolverSettings {
             max_substeps: 10_000,
             substep_energy_rel: 0.5,
             substep_energy_floor_rel: 1e-9,
+            contact_cut_rel: 1e-3,
             step_end_rel: 1e-12,
             consistent_max_iterations: 20,
             consistent_tol_rel: 1e-13,
@@ -265,6 +273,7 @@ impl SolverSettings {
             ("min_substep_fraction", self.min_substep_fraction),
             ("substep_energy_rel", self.substep_energy_rel),
             ("substep_energy_floor_rel", self.substep_energy_floor_rel),
+            ("contact_cut_rel", self.contact_cut_rel),
             ("step_end_rel", self.step_end_rel),
             ("consistent_tol_rel", self.consistent_tol_rel),
             ("lock_tol_m", self.lock_tol_m),

@@ -47,6 +47,9 @@ pub struct SolverStats {
     /// ... of which latched at their lock length the instant other latches
     /// left the truss rigid (redundant with those, impulse 0).
     pub latched_at_rigidity: u64,
+    /// Trial sub-steps cut at a unilateral spring's contact onset or
+    /// release (`contact_cut_rel`: an end stop's kink located).
+    pub contact_cuts: u64,
     /// Compliant latches that engaged, and the sub-steps spent resolving
     /// their transients.
     pub compliant_latches: u64,
@@ -127,7 +130,7 @@ impl SolverStats {
             "{} steps, {} sub-steps, {} Newmark steps ({:.2} iterations each), \
              {} Newton steps ({} GMRES iterations, {} backtracks), \
              {} factorizations ({} reused, {} probes), {} solves ({:.2} iterations each), \
-             {} latch searches ({} trial steps), {} latches ({} within a capture range, {} at their lock once rigid); fallbacks: {} halvings ({} at blend entries, {} for energy), \
+             {} latch searches ({} trial steps), {} latches ({} within a capture range, {} at their lock once rigid), {} sub-steps cut at contacts; fallbacks: {} halvings ({} at blend entries, {} for energy), \
              {} Newton switches ({} failed), {} Newmark min-norm, {} lagged friction, {} projection min-norm, {} velocity min-norm, \
              {} refactored, {} re-probed, {} least-squares, {} unconverged solves, \
              {} dips rejected ({} checks failed), {} root searches at their limit ({} search steps redone with basic solves), \
@@ -151,6 +154,7 @@ impl SolverStats {
             self.latches,
             self.latch_range_captures,
             self.latched_at_rigidity,
+            self.contact_cuts,
             f.substep_halvings,
             f.blend_entry_halvings,
             f.substep_energy_halvings,

@@ -234,6 +234,13 @@ pub trait Constraint: Send + Sync + fmt::Debug {
     fn spring(&self) -> Option<ElementSpring> {
         None
     }
+    /// For a unilateral spring (an end stop): the signed distance (m) past
+    /// its contact, > 0 in contact (the overrun), <= 0 free (how far from
+    /// it). The step cuts its sub-steps at the sign changes
+    /// (`contact_cut_rel`). None: no contact.
+    fn contact_distance_m(&self, _x: &[f64]) -> Option<f64> {
+        None
+    }
     /// For lockable elements: the current length and its rate (m, m/s), used to
     /// publish sleeves as prismatic joints.
     fn extension(&self, _x: &[f64], _v: &[f64]) -> Option<(f64, f64)> {

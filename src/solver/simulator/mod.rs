@@ -362,6 +362,11 @@ impl Simulator {
                 h_try = 0.5 * h;
                 continue;
             }
+            if let Some(h_cut) = self.contact_cut(h, dt) {
+                self.core.stats.contact_cuts += 1;
+                h_try = h_cut;
+                continue;
+            }
             if self.made_energy(h, dt) {
                 self.core.stats.fallbacks.substep_energy_halvings += 1;
                 h_try = 0.5 * h;
@@ -393,6 +398,30 @@ impl Simulator {
     /// `substep_energy_floor_rel` of the run's energy scale (stage
     /// `ledger`). Compliant latches' transients are not checked here (the
     /// run's balance check covers them).
+    /// The computed trial of length h crosses a unilateral spring's contact
+    /// (onset or release: `contact_distance_m` d changes sign from the
+    /// state to the trial): the sub-step length that ends `contact_cut_rel`
+    /// of h past the first crossing, s h with s = d0 / (d0 - d1) (linear in
+    /// d). None where nothing crosses, the crossing lies within
+    /// `contact_cut_rel` of the trial's end, or the cut would be shorter
+    /// than the shortest sub-step.
+    fn contact_cut(&self, h: f64, dt: f64) -> Option<f64> {
+        let st = &self.settings;
+        let (x0, x1) = (&self.state.x, &self.core.x);
+        let s = self
+            .model
+            .elements
+            .iter()
+            .filter_map(|el| {
+                let (d0, d1) = (el.contact_distance_m(x0)?, el.contact_distance_m(x1)?);
+                ((d0 > 0.0) != (d1 > 0.0)).then(|| d0 / (d0 - d1))
+            })
+            .fold(f64::INFINITY, f64::min);
+        let cut = (s + st.contact_cut_rel) * h;
+        (s.is_finite() && s < 1.0 - 2.0 * st.contact_cut_rel && cut > dt * st.min_substep_fraction)
+            .then_some(cut)
+    }
+
     fn made_energy(&mut self, h: f64, dt: f64) -> bool {
         let st = &self.settings;
         if h <= dt * st.min_substep_fraction || !self.state.transients.is_empty() {
