@@ -388,9 +388,8 @@ fn the_bundled_ring_deploys_to_full_lock_bay_by_bay_and_friction_orders_it() {
 /// the same. About 7 minutes of release build per run:
 /// `cargo test --release --test bay_by_bay_ring -- --ignored`. It fails
 /// today (issue 10 open): mu 0.005 meets every figure, mu 0.02 stops on a
-/// Newmark failure at 4461.8 s in the final snap with 46 of 108 latched
-/// (docs/double_ring_stowing.md, Session 11: with a 1e-4 m range it reaches
-/// full lock, at a balance of 2.3e-4).
+/// Newmark failure at 4461.8 s in the final snap with 51 of 108 latched
+/// (docs/double_ring_stowing.md, Session 11, has the other capture ranges).
 #[test]
 #[ignore = "two runs of ~7 min each in release, and it fails at mu 0.02 today (issue 10); cargo test --release --test bay_by_bay_ring -- --ignored"]
 fn a_36_sided_ring_deploys_to_full_lock_bay_by_bay_and_friction_orders_it() {
