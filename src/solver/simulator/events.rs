@@ -441,16 +441,14 @@ impl Simulator {
     /// latched, None if refused. The copy of the state is made only here,
     /// on a capture path.
     fn capture(&mut self, elements: &[usize]) -> Result<Option<usize>, SolverError> {
-        let stats = &self.core.stats;
-        let latches = (stats.latches, stats.latched_at_rigidity);
-        let saved = self.state.clone();
+        let (saved, latches) = (self.state.clone(), self.latch_counts());
         let t = self.state.t_s;
         let tol = self.settings.lock_tol_m;
         let mut set = elements.to_vec();
         loop {
             if self.latch_rigid(&set, &|_| t).is_err() {
                 // (the latch's own projection failed there: as too far a move)
-                self.undo_capture(saved, latches);
+                self.undo_latch(saved, latches);
                 return Ok(None);
             }
             let moved_m = saved
@@ -460,7 +458,7 @@ impl Simulator {
                 .map(|(a, b)| (a - b).abs())
                 .fold(0.0, f64::max);
             if moved_m > self.settings.latch_capture_max_move_m {
-                self.undo_capture(saved, latches);
+                self.undo_latch(saved, latches);
                 return Ok(None);
             }
             let (model, x) = (&self.model, &self.state.x);
@@ -474,15 +472,21 @@ impl Simulator {
             if carried.is_empty() {
                 return Ok(Some(set.len()));
             }
-            self.undo_capture(saved.clone(), latches);
+            self.undo_latch(saved.clone(), latches);
             set.extend(carried);
         }
     }
 
-    /// Back to the state before a capture, with the Jacobian pattern of its
-    /// locked set and the latch counts it had (`latches`: all, and those
-    /// latched at their lock once rigid).
-    fn undo_capture(&mut self, saved: crate::solver::state::State, latches: (u64, u64)) {
+    /// The latch counters a refused latch restores: all latches, and those
+    /// latched at their lock once rigid.
+    pub(super) fn latch_counts(&self) -> (u64, u64) {
+        (self.core.stats.latches, self.core.stats.latched_at_rigidity)
+    }
+
+    /// Back to the state before a refused latch (a capture, or the latch at
+    /// rigidity), with the Jacobian pattern of its locked set and the latch
+    /// counters it had (`latch_counts`).
+    pub(super) fn undo_latch(&mut self, saved: crate::solver::state::State, latches: (u64, u64)) {
         self.state = saved;
         self.core.set_pattern(&self.model, &self.state.locked);
         (self.core.stats.latches, self.core.stats.latched_at_rigidity) = latches;

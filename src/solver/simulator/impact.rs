@@ -176,23 +176,18 @@ impl Simulator {
         }
         // (the instant of the latches that made it rigid; the state's time
         // where none is given, after compliant latches turned rigid)
-        let t = elements
-            .iter()
-            .map(|&e| reached_s(e))
-            .fold(f64::NEG_INFINITY, f64::max)
-            .max(if elements.is_empty() {
-                self.state.t_s
-            } else {
-                f64::NEG_INFINITY
-            });
-        let (saved, latches) = (self.state.clone(), self.core.stats.latches);
+        let t = if elements.is_empty() {
+            self.state.t_s
+        } else {
+            elements
+                .iter()
+                .map(|&e| reached_s(e))
+                .fold(f64::NEG_INFINITY, f64::max)
+        };
+        let (saved, latches) = (self.state.clone(), self.latch_counts());
         match self.latch_rigid(&at_lock, &|_| t) {
             Ok(()) => self.core.stats.latched_at_rigidity += at_lock.len() as u64,
-            Err(_) => {
-                self.state = saved;
-                self.core.set_pattern(&self.model, &self.state.locked);
-                self.core.stats.latches = latches;
-            }
+            Err(_) => self.undo_latch(saved, latches),
         }
         Ok(())
     }

@@ -392,12 +392,6 @@ impl Simulator {
         Ok(events)
     }
 
-    /// Whether the trial sub-step of length h (not yet the shortest) made or
-    /// lost energy that no force accounts for: its ledger residual beyond
-    /// `substep_energy_rel` of the energy that flowed in it and beyond
-    /// `substep_energy_floor_rel` of the run's energy scale (stage
-    /// `ledger`). Compliant latches' transients are not checked here (the
-    /// run's balance check covers them).
     /// The computed trial of length h crosses a unilateral spring's contact
     /// (onset or release: `contact_distance_m` d changes sign from the
     /// state to the trial): the sub-step length that ends `contact_cut_rel`
@@ -422,6 +416,12 @@ impl Simulator {
             .then_some(cut)
     }
 
+    /// Whether the trial sub-step of length h (not yet the shortest) made or
+    /// lost energy that no force accounts for: its ledger residual beyond
+    /// `substep_energy_rel` of the energy that flowed in it and beyond
+    /// `substep_energy_floor_rel` of the run's energy scale (stage
+    /// `ledger`). Compliant latches' transients are not checked here (the
+    /// run's balance check covers them).
     fn made_energy(&mut self, h: f64, dt: f64) -> bool {
         let st = &self.settings;
         if h <= dt * st.min_substep_fraction || !self.state.transients.is_empty() {
