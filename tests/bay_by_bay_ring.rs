@@ -388,8 +388,9 @@ fn the_bundled_ring_deploys_to_full_lock_bay_by_bay_and_friction_orders_it() {
 /// the same. About 7 minutes of release build per run:
 /// `cargo test --release --test bay_by_bay_ring -- --ignored`. It fails
 /// today (issue 10 open): mu 0.005 meets every figure, mu 0.02 stops on a
-/// Newmark failure at 4461.8 s in the final snap with 51 of 108 latched
-/// (docs/double_ring_stowing.md, Session 11, has the other capture ranges).
+/// Newmark failure in the endgame at ~4461.7 s with about half the sleeves
+/// latched, its snap's ledger now within budget (docs/double_ring_stowing.md,
+/// Sessions 11 and 12).
 #[test]
 #[ignore = "two runs of ~7 min each in release, and it fails at mu 0.02 today (issue 10); cargo test --release --test bay_by_bay_ring -- --ignored"]
 fn a_36_sided_ring_deploys_to_full_lock_bay_by_bay_and_friction_orders_it() {

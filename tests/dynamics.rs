@@ -829,3 +829,56 @@ fn a_capstan_hold_creeps_at_the_regularized_speed() {
         assert!(st.newton_steps > 0, "{st:?}");
     }
 }
+
+/// The worst energy error of the frictionless, undamped mast's motion up to
+/// its first latch, |E_k - F (l0 - l)| (the cable's work is exact: the
+/// kinetic energy is a function of the geometry), against the ledger's
+/// budget b t E at each step's end (b = `ledger_budget_rel_per_s` of the
+/// run that is checked, E the drive's work to the reference geometry): as
+/// the largest ratio, with the run's sub-steps halved on the budget.
+fn energy_error_over_budget(dt: f64, budget_rel_per_s: f64, checked_rel_per_s: f64) -> (f64, u64) {
+    let p = frictionless();
+    let text = generate::mast(&p).expect("valid params").to_toml();
+    let mut m = parse(&text, "mast.toml").expect("loads").model;
+    m.solver.ledger_budget_rel_per_s = budget_rel_per_s;
+    let e_ref = m.drive_work_to_reference_j();
+    assert!(e_ref > 0.0);
+    let mut sim = Simulator::new(m, Options::default()).expect("simulator");
+    let l0 = generate::mast_cable_length(p.units, p.rod_length_m, p.start_deg.to_radians());
+    let mut worst: f64 = 0.0;
+    while sim.state().locks.is_empty() {
+        assert!(sim.state().t_s < 100.0, "no latch by t = 100 s");
+        sim.step(dt).expect("step");
+        let s = sim.state();
+        if !s.locks.is_empty() {
+            break;
+        }
+        let error_j =
+            (s.kinetic_energy_j(sim.model()) - p.tension_n * (l0 - s.cables[0].length_m)).abs();
+        worst = worst.max(error_j / (checked_rel_per_s * s.t_s * e_ref));
+    }
+    (worst, sim.solver_stats().ledger_halvings)
+}
+
+/// The ledger's step-size control keeps its promise: with a budget b, the
+/// energy error of fast motion stays below b t E at every step, where the
+/// same steps without the control exceed it; halving the budget keeps the
+/// smaller promise too.
+#[test]
+fn the_ledger_budget_bounds_the_energy_error_of_fast_motion() {
+    for dt in [0.1, 0.2] {
+        for b in [1e-7, 1e-8] {
+            let (off, _) = energy_error_over_budget(dt, 0.0, b);
+            let (on, halvings) = energy_error_over_budget(dt, b, b);
+            eprintln!("dt {dt} budget {b:e}/s: worst error / (b t E) {off:.3} without the control, {on:.3} with it ({halvings} halvings)");
+            assert!(
+                off > 1.0,
+                "the control is not exercised at dt {dt}, b {b}: {off}"
+            );
+            assert!(
+                halvings > 0 && on <= 1.0,
+                "dt {dt} b {b}: {on} ({halvings} halvings)"
+            );
+        }
+    }
+}

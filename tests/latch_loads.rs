@@ -536,7 +536,10 @@ fn the_rings_compliant_latches_peak_in_proportion_to_their_closing_speeds() {
     // (|v_b - v_a|^2 - ldot_i^2) / l_i, whose convective part is not
     // proportional to A_i n (measured: 1.057, 1.079, 1.086 N s/m, 2.8 %).
     // (Latches engaging each on its own mass would differ by their own
-    // k - c^2 w_i.)
+    // k - c^2 w_i.) "Roundoff" here is that of ~12 000 steps of
+    // near-singular solves: 1e-8 of the excess (measured 1.2e-9 with the
+    // ledger's step-size control on, below 1e-9 before it), 7 orders below
+    // the families' 2.8 %.
     let family = |n: &str| n.replace(|ch: char| ch.is_ascii_digit(), "");
     let excess: Vec<(String, f64)> = ratios.iter().map(|(n, r)| (n.clone(), r - c)).collect();
     let e0 = excess[0].1;
@@ -554,7 +557,7 @@ fn the_rings_compliant_latches_peak_in_proportion_to_their_closing_speeds() {
             .find(|(n, _)| family(n) == family(name))
             .unwrap();
         assert!(
-            (e - first.1).abs() <= 1e-9 * e0,
+            (e - first.1).abs() <= 1e-8 * e0,
             "{name}: {e} vs {} {}",
             first.0,
             first.1

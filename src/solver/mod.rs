@@ -81,8 +81,9 @@ impl fmt::Display for SolverError {
             ),
             SolverError::LatchSearch { element, t_s, gap_m, iterations } => write!(
                 f,
-                "the latch search for `{element}` stopped at its limit of {iterations} iterations at t = {t_s:.9} s \
-                 with the gap {gap_m:.3e} m, beyond the latch tolerance; raise [solver] root_max_iterations or use a smaller --dt"
+                "the latch search for `{element}` stopped after {iterations} iterations at t = {t_s:.9} s \
+                 with the gap {gap_m:.3e} m, beyond the latch tolerance (its bracket collapsed, or [solver] \
+                 root_max_iterations reached); use a smaller --dt"
             ),
             SolverError::MissedLatch { element, t_s, gap_m } => write!(
                 f,

@@ -44,6 +44,17 @@ pub struct Cable {
     pub slip_speed_m_s: f64,
 }
 
+impl Cable {
+    /// The cable's length along its path at the positions x (m): the sum of
+    /// its straight segments between pulleys.
+    pub fn length_m(&self, x: &[f64]) -> f64 {
+        self.path
+            .windows(2)
+            .map(|w| (elements::at(x, w[1]) - elements::at(x, w[0])).norm())
+            .sum()
+    }
+}
+
 #[derive(Debug)]
 pub struct Model {
     pub name: String,
@@ -284,6 +295,20 @@ impl Model {
         }
         Some(size)
     }
+    /// The motors' work of a deployment from X0 to the reference geometry
+    /// at their starting tensions: sum over cables of T (L(X0) - L(ref)) (J;
+    /// 0 without a reference). The energy scale a whole run reaches, known
+    /// at the start.
+    pub fn drive_work_to_reference_j(&self) -> f64 {
+        let Some(r) = &self.reference else {
+            return 0.0;
+        };
+        self.cables
+            .iter()
+            .map(|c| (c.tension_n * (c.length_m(&self.x0) - c.length_m(r))).abs())
+            .sum()
+    }
+
     /// The first element row whose residual at X0 exceeds `tol` (m), as
     /// (element, row, residual). Sleeves are checked only if they start latched.
     pub fn initial_violation(&self, tol: f64) -> Option<(usize, usize, f64)> {

@@ -108,6 +108,18 @@ pub struct SolverSettings {
     /// ... and by more than this fraction of the run's energy scale
     /// (`Energy::scale_j`), below which a miss is roundoff.
     pub substep_energy_floor_rel: f64,
+    /// Step-size control on the trapezoid's error: a trial sub-step whose
+    /// ledger misses by more than this fraction of the run's energy scale
+    /// per second of its length is halved (counted as `ledger_halvings`;
+    /// a sub-step that used more than a quarter of its budget is not
+    /// doubled after). The scale is the larger of `Energy::scale_j` and the
+    /// drive's work to the reference geometry (the motor's work of a whole
+    /// deployment, known at the start). The miss of a sub-step of length h
+    /// grows as h^3 and its budget as h, so each halving divides the
+    /// miss per second by 4; t seconds of fast motion (a ring's final snap)
+    /// add at most about this times t to the run's balance error. 0 turns
+    /// the control off (1/s).
+    pub ledger_budget_rel_per_s: f64,
     /// A trial sub-step across the contact onset or release of a unilateral
     /// spring (an end stop: `Constraint::contact_distance_m` changes sign) is
     /// cut to end this fraction of its length past the crossing (the
@@ -214,6 +226,7 @@ impl Default for SolverSettings {
             substep_energy_rel: 0.5,
             substep_energy_floor_rel: 1e-9,
             contact_cut_rel: 1e-3,
+            ledger_budget_rel_per_s: 1e-6,
             step_end_rel: 1e-12,
             consistent_max_iterations: 20,
             consistent_tol_rel: 1e-13,
@@ -301,6 +314,12 @@ impl SolverSettings {
             return Err(format!(
                 "[solver] latch_capture_m = {}: it must be a finite number >= 0 (0: no capture)",
                 self.latch_capture_m
+            ));
+        }
+        if !(self.ledger_budget_rel_per_s.is_finite() && self.ledger_budget_rel_per_s >= 0.0) {
+            return Err(format!(
+                "[solver] ledger_budget_rel_per_s = {}: it must be a finite number >= 0 (0: no control)",
+                self.ledger_budget_rel_per_s
             ));
         }
         for (key, v) in [

@@ -50,6 +50,10 @@ pub struct SolverStats {
     /// Trial sub-steps cut at a unilateral spring's contact onset or
     /// release (`contact_cut_rel`: an end stop's kink located).
     pub contact_cuts: u64,
+    /// Trial sub-steps halved because their ledger missed by more than its
+    /// budget (`ledger_budget_rel_per_s`: step-size control on the
+    /// trapezoid's error in fast motion).
+    pub ledger_halvings: u64,
     /// Compliant latches that engaged, and the sub-steps spent resolving
     /// their transients.
     pub compliant_latches: u64,
@@ -130,7 +134,7 @@ impl SolverStats {
             "{} steps, {} sub-steps, {} Newmark steps ({:.2} iterations each), \
              {} Newton steps ({} GMRES iterations, {} backtracks), \
              {} factorizations ({} reused, {} probes), {} solves ({:.2} iterations each), \
-             {} latch searches ({} trial steps), {} latches ({} within a capture range, {} at their lock once rigid), {} sub-steps cut at contacts; fallbacks: {} halvings ({} at blend entries, {} for energy), \
+             {} latch searches ({} trial steps), {} latches ({} within a capture range, {} at their lock once rigid), {} sub-steps cut at contacts, {} halved on their ledger's budget; fallbacks: {} halvings ({} at blend entries, {} for energy), \
              {} Newton switches ({} failed), {} Newmark min-norm, {} lagged friction, {} projection min-norm, {} velocity min-norm, \
              {} refactored, {} re-probed, {} least-squares, {} unconverged solves, \
              {} dips rejected ({} checks failed), {} root searches at their limit ({} search steps redone with basic solves), \
@@ -155,6 +159,7 @@ impl SolverStats {
             self.latch_range_captures,
             self.latched_at_rigidity,
             self.contact_cuts,
+            self.ledger_halvings,
             f.substep_halvings,
             f.blend_entry_halvings,
             f.substep_energy_halvings,

@@ -223,7 +223,9 @@ impl Simulator {
         let (mut a, mut ga) = (0.0, g0);
         let mut gb = gap(&self.model, target, &self.core.x);
         let mut side = 0i32;
-        for _ in 0..self.settings.root_max_iterations {
+        let mut iterations = 0;
+        while iterations < self.settings.root_max_iterations {
+            iterations += 1;
             // Illinois step (regula falsi with halving of the stale end)
             let mut m = (a * gb - b * ga) / (gb - ga);
             if !(m > a && m < b) {
@@ -240,6 +242,12 @@ impl Simulator {
                 b = m;
                 gb = gap(&self.model, target, &self.core.x);
                 side = 0;
+                // (a crossing within a vanishing part of the sub-step: the
+                // step's projection carried the sleeves across, not the
+                // motion, and nothing locates it in time)
+                if b <= st.root_bracket_rel * h {
+                    break;
+                }
                 continue;
             }
             if gm.abs() <= st.root_tol_m || (b - a) <= st.root_bracket_rel * h {
@@ -275,7 +283,7 @@ impl Simulator {
             element: self.model.elements[target].name().to_string(),
             t_s: self.state.t_s + b,
             gap_m: gb,
-            iterations: st.root_max_iterations,
+            iterations,
         })
     }
 

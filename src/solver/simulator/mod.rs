@@ -70,6 +70,10 @@ pub struct Simulator {
     /// start (the missed-latch check).
     interp: Vec<f64>,
     x_start: Vec<f64>,
+    /// The drive's work to the reference geometry
+    /// (`Model::drive_work_to_reference_j`): the ledger budget's scale
+    /// before the run's own energy grows to it.
+    drive_work_ref_j: f64,
 }
 
 impl Simulator {
@@ -89,7 +93,9 @@ impl Simulator {
             trial_copy: TrialCopy::default(),
             interp: vec![0.0; n],
             x_start: vec![0.0; n],
+            drive_work_ref_j: 0.0,
         };
+        sim.drive_work_ref_j = sim.model.drive_work_to_reference_j();
         sim.initialize()?;
         Ok(sim)
     }
@@ -367,11 +373,19 @@ impl Simulator {
                 h_try = h_cut;
                 continue;
             }
-            if self.made_energy(h, dt) {
-                self.core.stats.fallbacks.substep_energy_halvings += 1;
-                h_try = 0.5 * h;
-                continue;
-            }
+            let budget_used = match self.trial_ledger(h, dt) {
+                TrialLedger::MadeEnergy => {
+                    self.core.stats.fallbacks.substep_energy_halvings += 1;
+                    h_try = 0.5 * h;
+                    continue;
+                }
+                TrialLedger::OverBudget => {
+                    self.core.stats.ledger_halvings += 1;
+                    h_try = 0.5 * h;
+                    continue;
+                }
+                TrialLedger::Sound { budget_used } => budget_used,
+            };
             // (a failure that left the state as it was: in a latch search;
             // one after the state moved on, in a latch's own projection, stands)
             let before = self.state_mark();
@@ -383,7 +397,10 @@ impl Simulator {
                 }
                 Err(e) => return Err(e),
             };
-            h_try = (2.0 * h_try).min(dt);
+            // (doubling h multiplies the miss by 8 and its budget by 2)
+            if budget_used <= 0.25 {
+                h_try = (2.0 * h_try).min(dt);
+            }
         }
         self.state.t_s = t_end.max(self.state.t_s);
         events += self.capture_in_range()?;
@@ -416,22 +433,46 @@ impl Simulator {
             .then_some(cut)
     }
 
-    /// Whether the trial sub-step of length h (not yet the shortest) made or
-    /// lost energy that no force accounts for: its ledger residual beyond
-    /// `substep_energy_rel` of the energy that flowed in it and beyond
-    /// `substep_energy_floor_rel` of the run's energy scale (stage
-    /// `ledger`). Compliant latches' transients are not checked here (the
-    /// run's balance check covers them).
-    fn made_energy(&mut self, h: f64, dt: f64) -> bool {
+    /// The ledger's verdict on the trial sub-step of length h (stage
+    /// `ledger`), from its residual r (the change of kinetic energy less the
+    /// work booked over it). Not checked at the shortest sub-step or in
+    /// compliant latches' transients (the run's balance check covers them).
+    /// - `MadeEnergy`: |r| beyond `substep_energy_rel` of the energy that
+    ///   flowed in it and beyond `substep_energy_floor_rel` of the run's
+    ///   energy scale (`Energy::scale_j`): a Newmark solution that made
+    ///   energy no force accounts for.
+    /// - `OverBudget`: |r| > b h E with b = `ledger_budget_rel_per_s` and E
+    ///   the largest of the run's scale, the trial's kinetic energy and the
+    ///   drive's work to the reference geometry: the trapezoid's error (of
+    ///   order h^3) in fast motion.
+    /// - `Sound`, with the fraction |r| / (b h E) of the budget it used.
+    fn trial_ledger(&mut self, h: f64, dt: f64) -> TrialLedger {
         let st = &self.settings;
         if h <= dt * st.min_substep_fraction || !self.state.transients.is_empty() {
-            return false;
+            return TrialLedger::Sound { budget_used: 0.0 };
         }
         let (rel, floor_rel) = (st.substep_energy_rel, st.substep_energy_floor_rel);
+        let budget_rel_per_s = st.ledger_budget_rel_per_s;
         let ke = self.state.kinetic_energy_j(&self.model);
         let scale_j = self.state.energy.scale_j(ke);
         let (residual, flow) = self.trial_energy_residual_j();
-        residual.abs() > rel * flow && residual.abs() > floor_rel * scale_j
+        let miss_j = residual.abs();
+        if miss_j > rel * flow && miss_j > floor_rel * scale_j {
+            return TrialLedger::MadeEnergy;
+        }
+        // (the trial's own kinetic energy too: a run from rest, with no
+        // drive, has no scale before its first sub-step)
+        let ke_trial = crate::solver::state::kinetic_energy_j(&self.model, &self.core.v);
+        let budget_j = budget_rel_per_s * h * scale_j.max(ke_trial).max(self.drive_work_ref_j);
+        let budget_used = miss_j / budget_j;
+        // (0/0: the control is off, or nothing has an energy yet)
+        if budget_used > 1.0 && budget_j > 0.0 {
+            TrialLedger::OverBudget
+        } else {
+            TrialLedger::Sound {
+                budget_used: if budget_j > 0.0 { budget_used } else { 0.0 },
+            }
+        }
     }
 
     /// What a sub-step changes of the state before it fails, if anything:
@@ -506,6 +547,16 @@ impl Simulator {
             }
         }
     }
+}
+
+/// The ledger's verdict on a trial sub-step (`Simulator::trial_ledger`).
+enum TrialLedger {
+    /// It passes, having used this fraction of its miss budget.
+    Sound { budget_used: f64 },
+    /// It made or lost energy no force accounts for: halved (a fallback).
+    MadeEnergy,
+    /// It missed by more than its budget: halved (step-size control).
+    OverBudget,
 }
 
 fn blank_state(model: &Model) -> State {
