@@ -580,3 +580,40 @@ fn a_truss_left_rigid_latches_the_sleeves_standing_at_their_lock() {
     assert_eq!(s.locks[0].time_s, s.locks[1].time_s);
     assert!(s.locks[1].impulse_ns < 1e-12, "{:?}", s.locks[1]);
 }
+
+/// A capture whose move exceeds `latch_capture_max_move_m` is refused and
+/// counted, and the sleeve stays free. The creep (range 1e-4 m) comes within
+/// range of S's lock (z = -5e-5 m) while still 1e-4 m above it, and rests at
+/// z = 0, 5e-5 m short: with the move limit at 1e-3 m the first step end in
+/// range latches it (the move ~1e-4 m); at 1e-6 m every step end in range
+/// refuses it (300 steps of 0.01 s), nothing latches, and the ledger holds.
+#[test]
+fn a_capture_that_would_move_a_joint_too_far_is_refused_and_counted() {
+    for (max_move_m, latches) in [(1e-3, true), (1e-6, false)] {
+        let text = format!(
+            "{}[solver]\nlatch_capture_max_move_m = {max_move_m:e}\n",
+            creep(1e-4)
+        );
+        let model = parse(&text, "creep.toml").unwrap().model;
+        let mut sim = Simulator::new(model, Options::default()).unwrap();
+        for _ in 0..300 {
+            sim.step(0.01).unwrap();
+        }
+        let (s, stats) = (sim.state(), sim.solver_stats());
+        let balance = s.energy.balance_rel_error(s.kinetic_energy_j(sim.model()));
+        println!(
+            "move limit {max_move_m:e}: {} latched, {} refused, balance {balance:e}",
+            s.locks.len(),
+            stats.fallbacks.latch_range_refused
+        );
+        assert_eq!(s.locks.len(), latches as usize);
+        if latches {
+            assert_eq!(stats.fallbacks.latch_range_refused, 0);
+        } else {
+            // (every step end from entering the range on: most of the 300)
+            assert!(stats.fallbacks.latch_range_refused >= 100);
+            assert_eq!(stats.latch_range_captures, 0);
+        }
+        assert!(balance < 1e-9, "{balance:e}");
+    }
+}

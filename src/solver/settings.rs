@@ -164,6 +164,18 @@ pub struct SolverSettings {
     /// the joints far from where the motion had them; the capture is then
     /// undone and the failure stands.
     pub latch_capture_max_move_m: f64,
+    /// Closing onto the locks (a counted fallback, `latch_closed`): a truss
+    /// left rigid, or whose sub-step failed at the shortest length, with
+    /// every unlatched sleeve within this distance of its lock (m; or its
+    /// latch's capture range, if larger) latches them all at once, the
+    /// projection onto every lock length taken as one move (its work booked
+    /// with the latch loss, the velocities jumping to rest), unless that
+    /// move exceeds `latch_capture_max_move_m`. A ring's last bays reach
+    /// their locks together through a state pinned to second order (docs,
+    /// Finding 5), where the rigid model stops a few 1e-5 m short; a real
+    /// ring's hinge clearances and member elasticity close that. 0 turns it
+    /// off.
+    pub latch_close_m: f64,
 
     // --- compliant latches (stages `impact` and `ledger`) ---
     /// Steps per latch period until an engaged compliant latch's force has
@@ -237,6 +249,7 @@ impl Default for SolverSettings {
             dip_search_iterations: 60,
             latch_capture_m: 1e-5,
             latch_capture_max_move_m: 1e-3,
+            latch_close_m: 1e-4,
             latch_steps_per_period: 128.0,
             latch_settle_steps_per_period: 40.0,
             latch_settle_rel: 1e-3,
@@ -314,6 +327,12 @@ impl SolverSettings {
             return Err(format!(
                 "[solver] latch_capture_m = {}: it must be a finite number >= 0 (0: no capture)",
                 self.latch_capture_m
+            ));
+        }
+        if !(self.latch_close_m.is_finite() && self.latch_close_m >= 0.0) {
+            return Err(format!(
+                "[solver] latch_close_m = {}: it must be a finite number >= 0 (0: no closing)",
+                self.latch_close_m
             ));
         }
         if !(self.ledger_budget_rel_per_s.is_finite() && self.ledger_budget_rel_per_s >= 0.0) {

@@ -112,6 +112,10 @@ pub struct Fallbacks {
     /// failed or moved a joint farther than `latch_capture_max_move_m`
     /// (the sleeves stay free and are tried again after the next step).
     pub latch_range_refused: u64,
+    /// Sleeves latched by closing the truss onto every lock at once
+    /// (`latch_close_m`): it was rigid, or its sub-step failed, with each
+    /// unlatched sleeve within that of its lock.
+    pub latch_closed: u64,
     /// The accelerations' fixed point with cable inertia stopped at its iteration limit.
     pub consistent_unconverged: u64,
     /// A compliant latch turned rigid at `latch_max_periods` without having
@@ -138,7 +142,7 @@ impl SolverStats {
              {} Newton switches ({} failed), {} Newmark min-norm, {} lagged friction, {} projection min-norm, {} velocity min-norm, \
              {} refactored, {} re-probed, {} least-squares, {} unconverged solves, \
              {} dips rejected ({} checks failed), {} root searches at their limit ({} search steps redone with basic solves), \
-             {} latches captured after a failed sub-step, {} capture-range latches refused, \
+             {} latches captured after a failed sub-step, {} capture-range latches refused, {} latched closing onto every lock, \
              {} inertia fixed points unconverged, {} latches unsettled at their limit, \
              {} compliant latches with no compliance",
             self.steps,
@@ -179,6 +183,7 @@ impl SolverStats {
             f.latch_search_basic,
             f.latch_captured,
             f.latch_range_refused,
+            f.latch_closed,
             f.consistent_unconverged,
             f.latch_unsettled,
             f.latch_without_compliance,

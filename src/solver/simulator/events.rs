@@ -340,16 +340,68 @@ impl Simulator {
             })
             .min_by(|a, b| a.0.total_cmp(&b.0));
         let closing: Vec<usize> = first.map(|(_, e)| e).into_iter().collect();
-        if closing.is_empty() {
-            return Err(error);
-        }
         self.x_start.copy_from_slice(&self.state.x);
-        let Some(latched) = self.capture(&closing)? else {
-            return Err(error);
+        if !closing.is_empty() {
+            if let Some(latched) = self.capture(&closing)? {
+                self.core.stats.fallbacks.latch_captured += latched as u64;
+                self.check_nothing_missed()?;
+                return Ok(latched);
+            }
+        }
+        // (nothing closing could latch alone: the whole set, if it is near)
+        let t = self.state.t_s;
+        match self.close_onto_locks(t)? {
+            Some(latched) => Ok(latched),
+            None => Err(error),
+        }
+    }
+
+    /// Closing onto the locks (a counted fallback, `latch_closed`): where
+    /// every unlatched lockable element is a rigid-latching sleeve within
+    /// `latch_close_m` (or its capture range) of its lock, all latch at
+    /// once at `t_s`: one projection onto every lock length (the reference
+    /// geometry, for a truss whose locks define it), its work booked with
+    /// the latch loss, the velocities jumping onto the latched set (at rest
+    /// for a truss rigid once all have latched), the impulses split by least
+    /// work. Refused, with the state restored, where the projection fails
+    /// or moves a joint farther than `latch_capture_max_move_m`. Returns how
+    /// many latched (None: not near, or refused).
+    pub(super) fn close_onto_locks(&mut self, t_s: f64) -> Result<Option<usize>, SolverError> {
+        let (model, s, close_m) = (&self.model, &self.state, self.settings.latch_close_m);
+        if close_m <= 0.0 {
+            return Ok(None);
+        }
+        let open: Vec<usize> = model
+            .locks
+            .iter()
+            .copied()
+            .filter(|&e| !s.locked[e])
+            .collect();
+        let capturable: Vec<usize> = self.capturable().collect();
+        let near = |e: usize| {
+            let range = close_m.max(model.elements[e].capture_range_m());
+            gap(model, e, &s.x).abs() <= range
         };
-        self.core.stats.fallbacks.latch_captured += latched as u64;
-        self.check_nothing_missed()?;
-        Ok(latched)
+        if open.is_empty() || capturable != open || !open.iter().all(|&e| near(e)) {
+            return Ok(None);
+        }
+        let (saved, latches) = (self.state.clone(), self.latch_counts());
+        if self.latch_rigid(&open, &|_| t_s).is_err()
+            || self.moved_m(&saved.x) > self.settings.latch_capture_max_move_m
+        {
+            self.undo_latch(saved, latches);
+            return Ok(None);
+        }
+        self.core.stats.fallbacks.latch_closed += open.len() as u64;
+        Ok(Some(open.len()))
+    }
+
+    /// The largest move of any joint coordinate from `x` to the state's (m).
+    fn moved_m(&self, x: &[f64]) -> f64 {
+        x.iter()
+            .zip(&self.state.x)
+            .map(|(a, b)| (a - b).abs())
+            .fold(0.0, f64::max)
     }
 
     /// Stage `events` at the end of a step: the unlatched rigid sleeves
@@ -459,13 +511,7 @@ impl Simulator {
                 self.undo_latch(saved, latches);
                 return Ok(None);
             }
-            let moved_m = saved
-                .x
-                .iter()
-                .zip(&self.state.x)
-                .map(|(a, b)| (a - b).abs())
-                .fold(0.0, f64::max);
-            if moved_m > self.settings.latch_capture_max_move_m {
+            if self.moved_m(&saved.x) > self.settings.latch_capture_max_move_m {
                 self.undo_latch(saved, latches);
                 return Ok(None);
             }
@@ -627,5 +673,178 @@ mod tests {
             "captured {} J against the exact {loss} J",
             capture.energy_lost_j
         );
+    }
+
+    /// Closing onto every lock after a failed sub-step, against the exact
+    /// latch: the mast of the test above stepped to t* - delta (its four
+    /// sleeves ~5e-6 m from their locks), the single capture turned off
+    /// (`latch_capture_m` 0) and the sub-steps forced to fail: all four
+    /// latch at once at t* - delta, the joints at the deployed geometry, the
+    /// kinetic energy taken as the exact event takes it (plus the drive's
+    /// work over the move). Twenty times farther (gaps ~1e-4 m, beyond
+    /// `latch_close_m` 5e-5 m here) the failure stands and nothing latches.
+    #[test]
+    fn a_failed_sub_step_within_reach_of_every_lock_closes_onto_them() {
+        use crate::solver::{Options, Simulator};
+        let text = generate::mast(&MastParams::default()).unwrap().to_toml();
+        let model = || crate::model::parse(&text, "mast.toml").unwrap().model;
+        let mut exact = Simulator::new(model(), Options::default()).unwrap();
+        let dt = exact.model().dt_s;
+        while exact.state().locks.is_empty() {
+            assert!(exact.state().t_s < 100.0, "the mast latches");
+            exact.step(dt).unwrap();
+        }
+        let locks = &exact.state().locks;
+        let (t_star, speed) = (locks[0].time_s, locks[0].closing_speed_m_s.abs());
+        let loss: f64 = locks.iter().map(|l| l.energy_lost_j).sum();
+        for (gap_m, closes) in [(5e-6, true), (1e-4, false)] {
+            let mut sim = Simulator::new(model(), Options::default()).unwrap();
+            sim.settings.latch_close_m = 5e-5;
+            let t_stop = t_star - gap_m / speed;
+            while sim.state().t_s + dt < t_stop {
+                sim.step(dt).unwrap();
+            }
+            sim.step(t_stop - sim.state().t_s).unwrap();
+            assert!(sim.state().locks.is_empty());
+            let ke = sim.state().kinetic_energy_j(sim.model());
+            sim.settings.latch_capture_m = 0.0;
+            sim.settings.newmark_max_iterations = 1;
+            sim.settings.newmark_tol_rel = 0.0;
+            sim.settings.newmark_tol_position_m = 0.0;
+            // (the retry after the closing has nothing left to move: it passes)
+            let stepped = sim.step(dt);
+            let s = sim.state();
+            println!(
+                "gap {gap_m:e}: {stepped:?}, {} latched, closed {}",
+                s.locks.len(),
+                sim.core.stats.fallbacks.latch_closed
+            );
+            if !closes {
+                assert!(stepped.is_err());
+                assert!(s.locks.is_empty(), "{:?}", s.locks);
+                assert_eq!(sim.core.stats.fallbacks.latch_closed, 0);
+                continue;
+            }
+            assert_eq!(s.locks.len(), 4, "{:?}", s.locks);
+            assert_eq!(sim.core.stats.fallbacks.latch_closed, 4);
+            assert!(s.locks.iter().all(|l| (l.time_s - t_stop).abs() < 1e-12));
+            assert!(s.deployed);
+            let err = s.final_error_rel(sim.model()).unwrap();
+            assert!(err < 1e-12, "final error {err:e}");
+            let closed_loss: f64 = s.locks.iter().map(|l| l.energy_lost_j).sum();
+            let extra = closed_loss - ke;
+            assert!(
+                extra >= 0.0 && extra <= 1e-4 * ke,
+                "the closing takes the kinetic energy: {closed_loss} of {ke}"
+            );
+            assert!(
+                (closed_loss - loss).abs() <= 1e-3 * loss,
+                "closed {closed_loss} J against the exact {loss} J"
+            );
+        }
+    }
+
+    /// Closing a rigid truss onto its locks, in closed form: a toggle. Joint
+    /// B (1 kg, in the plane z = 0, gravity 9.81 m/s^2 along -y) hangs from
+    /// A = (-1, 0) by a bar of length r = sqrt(1 + e^2) and from C = (1, 0) by
+    /// sleeve S1 latched at length r: B = (0, +e) and (0, -e) both satisfy
+    /// them, and B starts at rest at (0, +e), rigid to first order (the rows
+    /// make an angle 2e). Sleeve S2 from D = (0, -1) locks at 1 - e, its
+    /// length at (0, -e): at (0, +e) it is 2e = 8e-5 m long of it, within
+    /// `latch_close_m`. The truss closes onto its locks: B at (0, -e), S2's
+    /// impulse 0 (at rest), gravity's work over the move, 2 e m g, booked
+    /// as latch loss. Not within reach (`latch_close_m` 5e-5 m), or with S2's lock
+    /// 2e-5 m shorter (no geometry has every lock), S2 stays open and B
+    /// where it was.
+    #[test]
+    fn a_rigid_truss_within_reach_of_its_locks_closes_onto_them() {
+        use crate::solver::{Options, Simulator};
+        let e: f64 = 4e-5;
+        let r = (1.0 + e * e).sqrt();
+        let toggle = |s2_lock_m: f64, close_m: f64| {
+            // (the reference geometry only where one satisfies every lock)
+            let consistent = s2_lock_m == 1.0 - e;
+            let joint = |name: &str, x: f64, y: f64, fix: &str, x_ref: f64, y_ref: f64| {
+                let reference = if consistent {
+                    format!("reference_m = [{x_ref:e}, {y_ref:e}, 0.0]\n")
+                } else {
+                    String::new()
+                };
+                format!(
+                    "[[joint]]\nname = \"{name}\"\nposition_m = [{x:e}, {y:e}, 0.0]\nmass_kg = 1.0\n\
+                     {reference}\
+                     [[element]]\ntype = \"support\"\nname = \"{name}_held\"\njoints = [\"{name}\"]\n\
+                     fix = \"{fix}\"\n"
+                )
+            };
+            let member = |kind: &str, name: &str, a: &str, b: &str, lock: Option<f64>| {
+                format!(
+                    "[[element]]\ntype = \"{kind}\"\nname = \"{name}\"\njoints = [\"{a}\", \"{b}\"]\n{}",
+                    lock.map_or(String::new(), |l| format!("lock_length_m = {l:e}\n"))
+                )
+            };
+            let text = format!(
+                "[model]\nname = \"toggle\"\n[settings]\ngravity_m_s2 = [0.0, -9.81, 0.0]\n\
+                 [solver]\nlatch_close_m = {close_m:e}\n{}{}{}{}{}{}{}",
+                joint("A", -1.0, 0.0, "xyz", -1.0, 0.0),
+                joint("C", 1.0, 0.0, "xyz", 1.0, 0.0),
+                joint("D", 0.0, -1.0, "xyz", 0.0, -1.0),
+                joint("B", 0.0, e, "z", 0.0, -e),
+                member("bar", "AB", "A", "B", None),
+                member("sleeve", "S1", "C", "B", Some(r)),
+                member("sleeve", "S2", "D", "B", Some(s2_lock_m)),
+            );
+            let model = crate::model::parse(&text, "toggle.toml").unwrap().model;
+            let mut sim = Simulator::new(model, Options::default()).unwrap();
+            let s1 = sim
+                .model()
+                .elements
+                .iter()
+                .position(|el| el.name() == "S1")
+                .unwrap();
+            assert!(sim.state().locked[s1], "S1 starts at its lock");
+            assert_eq!(sim.state().mechanisms, 0, "rigid to first order");
+            // (as `lock_rigidly` decides it after the latch that made it rigid)
+            sim.state.deployed = true;
+            sim.latch_at_lock_once_rigid(&[s1], &|_| 0.0).unwrap();
+            sim
+        };
+        let b_y = |sim: &Simulator| {
+            let b = sim.model().joint_index("B").unwrap();
+            sim.state().x[3 * b + 1]
+        };
+
+        let sim = toggle(1.0 - e, 1e-4);
+        let s = sim.state();
+        println!("closed: B y {:e}, {:?}", b_y(&sim), s.locks);
+        assert!(
+            (b_y(&sim) + e).abs() < 1e-12,
+            "B at (0, -e): {:e}",
+            b_y(&sim)
+        );
+        assert_eq!(s.locks.len(), 1);
+        assert_eq!((s.locks[0].name.as_str(), s.locks[0].time_s), ("S2", 0.0));
+        assert!(s.locks[0].impulse_ns < 1e-9, "{:?}", s.locks[0]);
+        // (the move's work goes to the ledger's latch loss, not to the
+        // event's own 1/2 mu . (A V), which is 0 at rest)
+        let work_j = 2.0 * e * 9.81;
+        for (booked_j, what) in [
+            (s.energy.gravity_work_j, "gravity's work"),
+            (s.energy.lock_loss_j, "latch loss"),
+        ] {
+            assert!(
+                (booked_j - work_j).abs() < 1e-6 * work_j,
+                "{what} {booked_j} J against {work_j} J"
+            );
+        }
+        assert_eq!(sim.core.stats.fallbacks.latch_closed, 1);
+        assert!(s.final_error_rel(sim.model()).unwrap() < 1e-12);
+
+        for (s2_lock_m, close_m) in [(1.0 - e, 5e-5), (1.0 - e - 2e-5, 1e-4)] {
+            let sim = toggle(s2_lock_m, close_m);
+            assert!(sim.state().locks.is_empty(), "{:?}", sim.state().locks);
+            assert!((b_y(&sim) - e).abs() < 1e-12, "B stays at (0, e)");
+            assert_eq!(sim.core.stats.fallbacks.latch_closed, 0);
+        }
     }
 }

@@ -140,7 +140,11 @@ impl Simulator {
     }
 
     /// A truss that these latches left rigid (deployed, sleeves still
-    /// unlatched): the rigid-latching sleeves standing at their lock length
+    /// unlatched) with every open sleeve within `latch_close_m` of its lock
+    /// closes onto all its locks (`close_onto_locks`): rigid to first order
+    /// a few 1e-5 m off its reference, where the last bays are pinned to
+    /// second order, it would otherwise stop there as a jam. Else the
+    /// rigid-latching sleeves standing at their lock length
     /// (|gap| within `latch_tol_m`) latch at the same instant, the last of
     /// `elements`' (their pins drop in where the motion stopped; their rows
     /// are redundant with the others', the truss is at rest along them, so
@@ -151,27 +155,12 @@ impl Simulator {
     /// truly rigid contradict each other by as much, and where the latch's
     /// projection fails on that, the state is restored and they stay open
     /// (the latch that left the truss rigid stands).
-    fn latch_at_lock_once_rigid(
+    pub(super) fn latch_at_lock_once_rigid(
         &mut self,
         elements: &[usize],
         reached_s: &dyn Fn(usize) -> f64,
     ) -> Result<(), SolverError> {
         if !self.state.deployed || self.all_locked() {
-            return Ok(());
-        }
-        let (model, s, tol) = (&self.model, &self.state, self.settings.latch_tol_m());
-        let at_lock: Vec<usize> = model
-            .locks
-            .iter()
-            .copied()
-            .filter(|&e| {
-                !s.locked[e]
-                    && !self.engaged(e)
-                    && model.elements[e].latch_spring().is_none()
-                    && gap(model, e, &s.x).abs() <= tol
-            })
-            .collect();
-        if at_lock.is_empty() {
             return Ok(());
         }
         // (the instant of the latches that made it rigid; the state's time
@@ -184,6 +173,27 @@ impl Simulator {
                 .map(|&e| reached_s(e))
                 .fold(f64::NEG_INFINITY, f64::max)
         };
+        let (model, s, tol) = (&self.model, &self.state, self.settings.latch_tol_m());
+        let at_lock: Vec<usize> = model
+            .locks
+            .iter()
+            .copied()
+            .filter(|&e| {
+                !s.locked[e]
+                    && !self.engaged(e)
+                    && model.elements[e].latch_spring().is_none()
+                    && gap(model, e, &s.x).abs() <= tol
+            })
+            .collect();
+        // some farther than the tolerance, all within reach: the truss
+        // closes onto all its locks
+        let open = model.locks.iter().filter(|&&e| !s.locked[e]).count();
+        if at_lock.len() < open && self.close_onto_locks(t)?.is_some() {
+            return Ok(());
+        }
+        if at_lock.is_empty() {
+            return Ok(());
+        }
         let (saved, latches) = (self.state.clone(), self.latch_counts());
         match self.latch_rigid(&at_lock, &|_| t) {
             Ok(()) => self.core.stats.latched_at_rigidity += at_lock.len() as u64,
