@@ -85,8 +85,8 @@ impl Simulator {
     /// A sound step leaves a residual of the trapezoid's error, a small
     /// fraction of the flow; a Newmark solution that made energy (a solve
     /// that converged to a wrong motion near a singular configuration) does
-    /// not.
-    pub(super) fn trial_energy_residual_j(&mut self) -> (f64, f64) {
+    /// not. Also the kinetic energies before and after the trial (J).
+    pub(super) fn trial_energy_residual_j(&mut self) -> TrialEnergy {
         let (m, s) = (&self.model, &self.state);
         let c = &mut self.core;
         let (elastic_j, damper_j) = c.element_springs.book_move(m, (&s.x, &s.v), (&c.x, &c.v));
@@ -101,16 +101,31 @@ impl Simulator {
             &c.x,
         );
         let damping_j = damping_loss_j(m, (&s.x, &s.v), (&c.x, &c.v));
-        let d_kinetic_j = kinetic_energy_j(m, &c.v) - kinetic_energy_j(m, &s.v);
-        let residual = d_kinetic_j - (work_j - damping_j - elastic_j - damper_j);
-        let flow = d_kinetic_j.abs()
-            + work_j.abs()
-            + damping_j.abs()
-            + elastic_j.abs()
-            + damper_j.abs()
-            + scratch.friction_loss_j.abs();
-        (residual, flow)
+        let (kinetic_before_j, kinetic_trial_j) =
+            (kinetic_energy_j(m, &s.v), kinetic_energy_j(m, &c.v));
+        let d_kinetic_j = kinetic_trial_j - kinetic_before_j;
+        TrialEnergy {
+            residual_j: d_kinetic_j - (work_j - damping_j - elastic_j - damper_j),
+            flow_j: d_kinetic_j.abs()
+                + work_j.abs()
+                + damping_j.abs()
+                + elastic_j.abs()
+                + damper_j.abs()
+                + scratch.friction_loss_j.abs(),
+            kinetic_before_j,
+            kinetic_trial_j,
+        }
     }
+}
+
+/// A trial sub-step's ledger (`Simulator::trial_energy_residual_j`), J.
+pub(super) struct TrialEnergy {
+    /// The change of kinetic energy less the net work booked over the trial.
+    pub residual_j: f64,
+    /// The sum of the magnitudes of the ledger's terms over it.
+    pub flow_j: f64,
+    pub kinetic_before_j: f64,
+    pub kinetic_trial_j: f64,
 }
 
 /// The joint damping's work over a move (J), by the trapezoid:
@@ -184,7 +199,8 @@ mod tests {
         sim.core
             .newmark(&sim.model, &sim.state, h, &st, SolveMode::Basic)
             .unwrap();
-        let (residual, flow) = sim.trial_energy_residual_j();
+        let trial = sim.trial_energy_residual_j();
+        let (residual, flow) = (trial.residual_j, trial.flow_j);
         println!("residual {residual:e} J of a flow {flow:e} J");
         assert!(
             flow > 0.0 && residual.abs() < 1e-2 * flow,

@@ -453,17 +453,19 @@ impl Simulator {
         }
         let (rel, floor_rel) = (st.substep_energy_rel, st.substep_energy_floor_rel);
         let budget_rel_per_s = st.ledger_budget_rel_per_s;
-        let ke = self.state.kinetic_energy_j(&self.model);
-        let scale_j = self.state.energy.scale_j(ke);
-        let (residual, flow) = self.trial_energy_residual_j();
-        let miss_j = residual.abs();
-        if miss_j > rel * flow && miss_j > floor_rel * scale_j {
+        let trial = self.trial_energy_residual_j();
+        let scale_j = self.state.energy.scale_j(trial.kinetic_before_j);
+        let miss_j = trial.residual_j.abs();
+        if miss_j > rel * trial.flow_j && miss_j > floor_rel * scale_j {
             return TrialLedger::MadeEnergy;
         }
         // (the trial's own kinetic energy too: a run from rest, with no
         // drive, has no scale before its first sub-step)
-        let ke_trial = crate::solver::state::kinetic_energy_j(&self.model, &self.core.v);
-        let budget_j = budget_rel_per_s * h * scale_j.max(ke_trial).max(self.drive_work_ref_j);
+        let budget_j = budget_rel_per_s
+            * h
+            * scale_j
+                .max(trial.kinetic_trial_j)
+                .max(self.drive_work_ref_j);
         let budget_used = miss_j / budget_j;
         // (0/0: the control is off, or nothing has an energy yet)
         if budget_used > 1.0 && budget_j > 0.0 {
