@@ -311,13 +311,16 @@ impl Simulator {
 
     /// Capture after a failed sub-step (`error`: a Newmark iteration that did
     /// not converge at the shortest sub-step, a projection that failed there,
-    /// or a latch search that failed): of the unlatched sleeves closing on
-    /// their lock from within `latch_capture_m` at the sub-step's start, the
-    /// one that would reach it first latches there (rigid, its impulse and
+    /// or a latch search that failed): the failed search's target, if it is
+    /// within `latch_capture_m` of its lock at the sub-step's start, or else
+    /// of the unlatched sleeves closing on their lock from within that, the
+    /// one that would reach it first, latches there (rigid, its impulse and
     /// the projection's work booked as at any latch; counted as
     /// `latch_captured`, with any it sweeps past their lock), and the number
-    /// latched is returned for the sub-step to be retried. With none to capture, or a capture that would
-    /// move the joints too far (`capture`), the error stands.
+    /// latched is returned for the sub-step to be retried. With none to
+    /// capture, or a capture that would move the joints too far
+    /// (`capture`), the truss closes onto every lock if each is near
+    /// (`close_onto_locks`); else the error stands.
     pub(super) fn capture_or(&mut self, error: SolverError) -> Result<usize, SolverError> {
         if !matches!(
             error,
@@ -339,7 +342,19 @@ impl Simulator {
                     .then(|| (-c.gap_m / c.rate_m_s, e))
             })
             .min_by(|a, b| a.0.total_cmp(&b.0));
-        let closing: Vec<usize> = first.map(|(_, e)| e).into_iter().collect();
+        // A latch search that failed: its trials carried the target across
+        // its lock within a vanishing part of the sub-step (the bracket
+        // collapsed onto the state), which the step's projection does, not
+        // the motion, near a singular configuration. Within
+        // `latch_capture_m` of its lock the target is at it to what the step
+        // resolves, whichever way it moves: it latches there.
+        let searched = match &error {
+            SolverError::LatchSearch { element, .. } => self.capturable().find(|&e| {
+                model.elements[e].name() == element && gap(model, e, &s.x).abs() <= capture
+            }),
+            _ => None,
+        };
+        let closing: Vec<usize> = searched.or(first.map(|(_, e)| e)).into_iter().collect();
         self.x_start.copy_from_slice(&self.state.x);
         if !closing.is_empty() {
             if let Some(latched) = self.capture(&closing)? {
@@ -565,6 +580,53 @@ impl Simulator {
 mod tests {
     use super::{crossed_unlatched, gap};
     use crate::model::generate::{self, MastParams};
+    use crate::solver::settings::SolverSettings;
+    use crate::solver::{Options, Simulator};
+
+    /// The generated mast (one mechanism, four sleeves latching at one
+    /// instant), fresh.
+    fn mast() -> Simulator {
+        let text = generate::mast(&MastParams::default()).unwrap().to_toml();
+        let model = crate::model::parse(&text, "mast.toml").unwrap().model;
+        Simulator::new(model, Options::default()).unwrap()
+    }
+
+    /// The mast's exact latch: (t*, closing speed m/s, the energy its four
+    /// latches take J).
+    fn mast_exact_latch() -> (f64, f64, f64) {
+        let mut exact = mast();
+        let dt = exact.model().dt_s;
+        while exact.state().locks.is_empty() {
+            assert!(exact.state().t_s < 100.0, "the mast latches");
+            exact.step(dt).unwrap();
+        }
+        let locks = &exact.state().locks;
+        assert!(
+            locks.iter().all(|l| l.time_s == locks[0].time_s),
+            "one instant"
+        );
+        let loss = locks.iter().map(|l| l.energy_lost_j).sum();
+        (locks[0].time_s, locks[0].closing_speed_m_s.abs(), loss)
+    }
+
+    /// The mast stepped to `t_stop` (short of its latch), then made to fail
+    /// every sub-step (the Newmark iteration allowed one iterate and no
+    /// tolerance); with the kinetic energy it has there (J).
+    fn mast_failing_at(t_stop: f64, close_m: f64) -> (Simulator, f64) {
+        let mut sim = mast();
+        sim.settings.latch_close_m = close_m;
+        let dt = sim.model().dt_s;
+        while sim.state().t_s + dt < t_stop {
+            sim.step(dt).unwrap();
+        }
+        sim.step(t_stop - sim.state().t_s).unwrap();
+        assert!(sim.state().locks.is_empty());
+        let ke = sim.state().kinetic_energy_j(sim.model());
+        sim.settings.newmark_max_iterations = 1;
+        sim.settings.newmark_tol_rel = 0.0;
+        sim.settings.newmark_tol_position_m = 0.0;
+        (sim, ke)
+    }
 
     /// The missed-latch check: a sleeve whose gap changed sign beyond the
     /// tolerance is found unless it is locked, excepted, or within tolerance.
@@ -613,34 +675,10 @@ mod tests {
     /// within the drive's work over delta.
     #[test]
     fn a_failed_sub_step_next_to_a_latch_captures_it_as_the_exact_latch_would() {
-        use crate::solver::{Options, Simulator};
-        let text = generate::mast(&MastParams::default()).unwrap().to_toml();
-        let model = || crate::model::parse(&text, "mast.toml").unwrap().model;
-        let mut exact = Simulator::new(model(), Options::default()).unwrap();
-        let dt = exact.model().dt_s;
-        while exact.state().locks.is_empty() {
-            assert!(exact.state().t_s < 100.0, "the mast latches");
-            exact.step(dt).unwrap();
-        }
-        let locks = &exact.state().locks;
-        let t_star = locks[0].time_s;
-        assert!(locks.iter().all(|l| l.time_s == t_star), "one instant");
-        let loss: f64 = locks.iter().map(|l| l.energy_lost_j).sum();
-        let speed = locks[0].closing_speed_m_s.abs();
-        let delta = 5e-6 / speed;
-
-        let mut sim = Simulator::new(model(), Options::default()).unwrap();
-        let t_stop = t_star - delta;
-        while sim.state().t_s + dt < t_stop {
-            sim.step(dt).unwrap();
-        }
-        sim.step(t_stop - sim.state().t_s).unwrap();
-        assert!(sim.state().locks.is_empty());
-        let ke = sim.state().kinetic_energy_j(sim.model());
-        // (one iterate, judged to no tolerance: no sub-step converges)
-        sim.settings.newmark_max_iterations = 1;
-        sim.settings.newmark_tol_rel = 0.0;
-        sim.settings.newmark_tol_position_m = 0.0;
+        let (t_star, speed, loss) = mast_exact_latch();
+        let t_stop = t_star - 5e-6 / speed;
+        let dt = mast().model().dt_s;
+        let (mut sim, ke) = mast_failing_at(t_stop, SolverSettings::default().latch_close_m);
         // (after the capture the retry fails too, with nothing left closing)
         assert!(sim.step(dt).is_err());
         let s = sim.state();
@@ -685,32 +723,12 @@ mod tests {
     /// `latch_close_m` 5e-5 m here) the failure stands and nothing latches.
     #[test]
     fn a_failed_sub_step_within_reach_of_every_lock_closes_onto_them() {
-        use crate::solver::{Options, Simulator};
-        let text = generate::mast(&MastParams::default()).unwrap().to_toml();
-        let model = || crate::model::parse(&text, "mast.toml").unwrap().model;
-        let mut exact = Simulator::new(model(), Options::default()).unwrap();
-        let dt = exact.model().dt_s;
-        while exact.state().locks.is_empty() {
-            assert!(exact.state().t_s < 100.0, "the mast latches");
-            exact.step(dt).unwrap();
-        }
-        let locks = &exact.state().locks;
-        let (t_star, speed) = (locks[0].time_s, locks[0].closing_speed_m_s.abs());
-        let loss: f64 = locks.iter().map(|l| l.energy_lost_j).sum();
+        let (t_star, speed, loss) = mast_exact_latch();
+        let dt = mast().model().dt_s;
         for (gap_m, closes) in [(5e-6, true), (1e-4, false)] {
-            let mut sim = Simulator::new(model(), Options::default()).unwrap();
-            sim.settings.latch_close_m = 5e-5;
             let t_stop = t_star - gap_m / speed;
-            while sim.state().t_s + dt < t_stop {
-                sim.step(dt).unwrap();
-            }
-            sim.step(t_stop - sim.state().t_s).unwrap();
-            assert!(sim.state().locks.is_empty());
-            let ke = sim.state().kinetic_energy_j(sim.model());
+            let (mut sim, ke) = mast_failing_at(t_stop, 5e-5);
             sim.settings.latch_capture_m = 0.0;
-            sim.settings.newmark_max_iterations = 1;
-            sim.settings.newmark_tol_rel = 0.0;
-            sim.settings.newmark_tol_position_m = 0.0;
             // (the retry after the closing has nothing left to move: it passes)
             let stepped = sim.step(dt);
             let s = sim.state();
@@ -758,7 +776,6 @@ mod tests {
     /// where it was.
     #[test]
     fn a_rigid_truss_within_reach_of_its_locks_closes_onto_them() {
-        use crate::solver::{Options, Simulator};
         let e: f64 = 4e-5;
         let r = (1.0 + e * e).sqrt();
         let toggle = |s2_lock_m: f64, close_m: f64| {
@@ -845,6 +862,51 @@ mod tests {
             assert!(sim.state().locks.is_empty(), "{:?}", sim.state().locks);
             assert!((b_y(&sim) - e).abs() < 1e-12, "B stays at (0, e)");
             assert_eq!(sim.core.stats.fallbacks.latch_closed, 0);
+        }
+    }
+
+    /// A failed latch search's target within `latch_capture_m` of its lock
+    /// latches there whichever way it moves (near a singular configuration
+    /// the step's projection, not the motion, carries it across its lock).
+    /// The mast stepped to ~5e-8 m short of its latch, its velocities
+    /// reversed (opening, away from the locks: nothing is closing, so the
+    /// closing-first capture has nothing to take): handed a failed search
+    /// for its first sleeve, the capture latches it, the one-mechanism
+    /// mast stops (the other three, then at their lock, latch with it) and
+    /// the kinetic energy goes with the latch. The same search for a sleeve
+    /// 2e-5 m off (beyond 1e-5 m) leaves the failure standing.
+    #[test]
+    fn a_failed_latch_search_captures_its_target_at_its_lock_whichever_way_it_moves() {
+        use crate::solver::SolverError;
+        let (t_star, speed, _) = mast_exact_latch();
+        for (gap_m, captures) in [(5e-8, true), (2e-5, false)] {
+            let (mut sim, ke) = mast_failing_at(t_star - gap_m / speed, 0.0);
+            for v in &mut sim.state.v {
+                *v = -*v;
+            }
+            let target = sim.model().locks[0];
+            let name = sim.model().elements[target].name().to_string();
+            let error = SolverError::LatchSearch {
+                element: name.clone(),
+                t_s: sim.state().t_s,
+                gap_m: gap(sim.model(), target, &sim.state().x),
+                iterations: 100,
+            };
+            let outcome = sim.capture_or(error);
+            let s = sim.state();
+            println!("gap {gap_m:e}: {outcome:?}, {:?}", s.locks);
+            if !captures {
+                assert!(matches!(outcome, Err(SolverError::LatchSearch { .. })));
+                assert!(s.locks.is_empty());
+                continue;
+            }
+            assert_eq!(outcome.unwrap(), 1);
+            assert_eq!(s.locks.len(), 4, "{:?}", s.locks);
+            assert_eq!(s.locks[0].name, name);
+            assert_eq!(sim.core.stats.fallbacks.latch_captured, 1);
+            assert!(s.deployed);
+            let lost: f64 = s.locks.iter().map(|l| l.energy_lost_j).sum();
+            assert!((lost - ke).abs() <= 1e-6 * ke, "{lost} J of {ke} J");
         }
     }
 }
