@@ -388,9 +388,9 @@ fn the_bundled_ring_deploys_to_full_lock_bay_by_bay_and_friction_orders_it() {
 /// the same. About 7 minutes of release build per run:
 /// `cargo test --release --test bay_by_bay_ring -- --ignored`. It fails
 /// today (issue 10 open): mu 0.005 meets every figure, mu 0.02 stops on a
-/// Newmark failure in the endgame at ~4461.7 s with about half the sleeves
-/// latched, its snap's ledger now within budget (docs/double_ring_stowing.md,
-/// Sessions 11 and 12).
+/// Newmark failure in the endgame at 4461.85 s with 48 of 108 sleeves
+/// latched, its balance 2.8e-5 (docs/double_ring_stowing.md, Sessions 11
+/// to 13).
 #[test]
 #[ignore = "two runs of ~7 min each in release, and it fails at mu 0.02 today (issue 10); cargo test --release --test bay_by_bay_ring -- --ignored"]
 fn a_36_sided_ring_deploys_to_full_lock_bay_by_bay_and_friction_orders_it() {
