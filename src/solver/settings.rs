@@ -165,11 +165,14 @@ pub struct SolverSettings {
     /// undone and the failure stands.
     pub latch_capture_max_move_m: f64,
     /// Closing onto the locks (a counted fallback, `latch_closed`): a truss
-    /// left rigid, or whose sub-step failed at the shortest length, with
-    /// every unlatched sleeve within this distance of its lock (m; or its
-    /// latch's capture range, if larger) latches them all at once, the
-    /// projection onto every lock length taken as one move (its work booked
-    /// with the latch loss, the velocities jumping to rest), unless that
+    /// left rigid, or whose sub-step failed where a capture is tried (the
+    /// Newmark iteration or projection at the shortest sub-step, or a latch
+    /// search) with nothing captured, with every unlatched sleeve within
+    /// this distance of its lock (m; or its latch's capture range, if
+    /// larger) latches them all at once, the projection onto every lock
+    /// length taken as one move (its work booked with the latch loss, the
+    /// velocities jumping onto the latched set: to rest where that is
+    /// rigid), unless that
     /// move exceeds `latch_capture_max_move_m`. A ring's last bays reach
     /// their locks together through a state pinned to second order (docs,
     /// Finding 5), where the rigid model stops a few 1e-5 m short; a real

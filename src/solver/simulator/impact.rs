@@ -140,8 +140,8 @@ impl Simulator {
     }
 
     /// A truss that these latches left rigid (deployed, sleeves still
-    /// unlatched) with every open sleeve within `latch_close_m` of its lock
-    /// closes onto all its locks (`close_onto_locks`): rigid to first order
+    /// unlatched) with every open sleeve within `latch_close_m` (or its
+    /// capture range) of its lock closes onto all its locks (`close_onto_locks`): rigid to first order
     /// a few 1e-5 m off its reference, where the last bays are pinned to
     /// second order, it would otherwise stop there as a jam. Else the
     /// rigid-latching sleeves standing at their lock length

@@ -78,10 +78,10 @@ impl Simulator {
 
 impl Simulator {
     /// The energy ledger of the trial step in the core, before it is
-    /// accepted: (residual, flow) with residual = the change of kinetic
+    /// accepted (`TrialEnergy`): the residual, the change of kinetic
     /// energy less the net work booked over it (drive and gravity, joint
     /// damping, compliant elements' springs and dampers; without compliant
-    /// latches' transients), and flow the sum of those terms' magnitudes (J).
+    /// latches' transients), and the flow, the sum of those terms' magnitudes (J).
     /// A sound step leaves a residual of the trapezoid's error, a small
     /// fraction of the flow; a Newmark solution that made energy (a solve
     /// that converged to a wrong motion near a singular configuration) does
