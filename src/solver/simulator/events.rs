@@ -393,12 +393,14 @@ impl Simulator {
             .copied()
             .filter(|&e| !s.locked[e])
             .collect();
-        let capturable: Vec<usize> = self.capturable().collect();
+        // (each a rigid latch, not engaging: what `capturable` admits)
         let near = |e: usize| {
             let range = close_m.max(model.elements[e].capture_range_m());
-            gap(model, e, &s.x).abs() <= range
+            !self.engaged(e)
+                && model.elements[e].latch_spring().is_none()
+                && gap(model, e, &s.x).abs() <= range
         };
-        if open.is_empty() || capturable != open || !open.iter().all(|&e| near(e)) {
+        if open.is_empty() || !open.iter().all(|&e| near(e)) {
             return Ok(None);
         }
         let (saved, latches) = (self.state.clone(), self.latch_counts());
