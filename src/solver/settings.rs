@@ -108,6 +108,15 @@ pub struct SolverSettings {
     /// ... and by more than this fraction of the run's energy scale
     /// (`Energy::scale_j`), below which a miss is roundoff.
     pub substep_energy_floor_rel: f64,
+    /// A trial that made energy (`substep_energy_rel`) at the shortest
+    /// sub-step (`min_substep_fraction`) is halved on, down to this fraction
+    /// of the requested step; there it is accepted and counted
+    /// (`substep_energy_accepted`). Near a singular configuration a Newmark
+    /// solution can make energy at any length: a shorter one usually does
+    /// not (measured: one trial of dt/1024 of a 36-sided ring made
+    /// 6.3e-2 J, 3.3e-4 of its run's energy scale and nearly all of the
+    /// run's balance error).
+    pub made_energy_min_substep_fraction: f64,
     /// Step-size control on the trapezoid's error: a trial sub-step whose
     /// ledger misses by more than this fraction of the run's energy scale
     /// per second of its length is halved (counted as `ledger_halvings`;
@@ -240,6 +249,7 @@ impl Default for SolverSettings {
             max_substeps: 10_000,
             substep_energy_rel: 0.5,
             substep_energy_floor_rel: 1e-9,
+            made_energy_min_substep_fraction: 1.0 / 65536.0,
             contact_cut_rel: 1e-3,
             ledger_budget_rel_per_s: 1e-6,
             step_end_rel: 1e-12,
@@ -302,6 +312,10 @@ impl SolverSettings {
             ("min_substep_fraction", self.min_substep_fraction),
             ("substep_energy_rel", self.substep_energy_rel),
             ("substep_energy_floor_rel", self.substep_energy_floor_rel),
+            (
+                "made_energy_min_substep_fraction",
+                self.made_energy_min_substep_fraction,
+            ),
             ("contact_cut_rel", self.contact_cut_rel),
             ("step_end_rel", self.step_end_rel),
             ("consistent_tol_rel", self.consistent_tol_rel),
@@ -359,6 +373,10 @@ impl SolverSettings {
             ("newmark_newton_min_step", self.newmark_newton_min_step),
             ("newmark_newton_curvature", self.newmark_newton_curvature),
             ("min_substep_fraction", self.min_substep_fraction),
+            (
+                "made_energy_min_substep_fraction",
+                self.made_energy_min_substep_fraction,
+            ),
             ("step_end_rel", self.step_end_rel),
         ] {
             if v >= 1.0 {

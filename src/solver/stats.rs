@@ -71,6 +71,13 @@ pub struct Fallbacks {
     /// A trial sub-step made or lost energy no force accounts for
     /// (`substep_energy_rel`) and was halved.
     pub substep_energy_halvings: u64,
+    /// ... at its shortest (`made_energy_min_substep_fraction`): accepted
+    /// with the energy it made, which the run's balance error then shows.
+    pub substep_energy_accepted: u64,
+    /// A trial sub-step at the shortest length (`min_substep_fraction`)
+    /// missed its ledger's budget (`ledger_budget_rel_per_s`) and was
+    /// accepted: the step-size control stops there.
+    pub ledger_budget_exceeded: u64,
     /// A Newmark iteration that stopped contracting went on with Newton steps.
     pub newmark_newton: u64,
     /// ... whose line search gave up (`newmark_newton_line_search_max`,
@@ -138,7 +145,7 @@ impl SolverStats {
             "{} steps, {} sub-steps, {} Newmark steps ({:.2} iterations each), \
              {} Newton steps ({} GMRES iterations, {} backtracks), \
              {} factorizations ({} reused, {} probes), {} solves ({:.2} iterations each), \
-             {} latch searches ({} trial steps), {} latches ({} within a capture range, {} at their lock once rigid), {} sub-steps cut at contacts, {} halved on their ledger's budget; fallbacks: {} halvings ({} at blend entries, {} for energy), \
+             {} latch searches ({} trial steps), {} latches ({} within a capture range, {} at their lock once rigid), {} sub-steps cut at contacts, {} halved on their ledger's budget; fallbacks: {} halvings ({} at blend entries, {} for energy, {} accepted making energy, {} over their ledger's budget at the shortest), \
              {} Newton switches ({} failed), {} Newmark min-norm, {} lagged friction, {} projection min-norm, {} velocity min-norm, \
              {} refactored, {} re-probed, {} least-squares, {} unconverged solves, \
              {} dips rejected ({} checks failed), {} root searches at their limit ({} search steps redone with basic solves), \
@@ -167,6 +174,8 @@ impl SolverStats {
             f.substep_halvings,
             f.blend_entry_halvings,
             f.substep_energy_halvings,
+            f.substep_energy_accepted,
+            f.ledger_budget_exceeded,
             f.newmark_newton,
             f.newmark_newton_failed,
             f.newmark_min_norm,

@@ -214,7 +214,11 @@ mod tests {
             *v *= 2.0;
         }
         assert!(made_energy(&mut sim, h));
-        // (at the shortest sub-step nothing is halved: the step goes on)
-        assert!(!made_energy(&mut sim, h * st.min_substep_fraction));
+        // (below the other halvings' shortest sub-step it is still halved;
+        // at its own shortest, accepted and counted)
+        assert!(made_energy(&mut sim, h * st.min_substep_fraction));
+        let accepted = sim.core.stats.fallbacks.substep_energy_accepted;
+        assert!(!made_energy(&mut sim, h * st.made_energy_min_substep_fraction));
+        assert_eq!(sim.core.stats.fallbacks.substep_energy_accepted, accepted + 1);
     }
 }

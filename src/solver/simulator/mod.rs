@@ -435,29 +435,39 @@ impl Simulator {
 
     /// The ledger's verdict on the trial sub-step of length h (stage
     /// `ledger`), from its residual r (the change of kinetic energy less the
-    /// work booked over it). Not checked at the shortest sub-step or in
-    /// compliant latches' transients (the run's balance check covers them).
+    /// work booked over it). Not checked in compliant latches' transients
+    /// (the run's balance check covers them).
     /// - `MadeEnergy`: |r| beyond `substep_energy_rel` of the energy that
     ///   flowed in it and beyond `substep_energy_floor_rel` of the run's
     ///   energy scale (`Energy::scale_j`): a Newmark solution that made
-    ///   energy no force accounts for.
+    ///   energy no force accounts for. Down to
+    ///   `made_energy_min_substep_fraction` of the step, below the shortest
+    ///   sub-step of the other halvings; there `Sound` (counted as
+    ///   `substep_energy_accepted`).
     /// - `OverBudget`: |r| > b h E with b = `ledger_budget_rel_per_s` and E
     ///   the largest of the run's scale, the trial's kinetic energy and the
     ///   drive's work to the reference geometry: the trapezoid's error (of
-    ///   order h^3) in fast motion.
+    ///   order h^3) in fast motion. Above the shortest sub-step
+    ///   (`min_substep_fraction`); there `Sound` (counted as
+    ///   `ledger_budget_exceeded`).
     /// - `Sound`, with the fraction |r| / (b h E) of the budget it used.
     fn trial_ledger(&mut self, h: f64, dt: f64) -> TrialLedger {
-        let st = &self.settings;
-        if h <= dt * st.min_substep_fraction || !self.state.transients.is_empty() {
+        if !self.state.transients.is_empty() {
             return TrialLedger::Sound { budget_used: 0.0 };
         }
+        let trial = self.trial_energy_residual_j();
+        let st = &self.settings;
         let (rel, floor_rel) = (st.substep_energy_rel, st.substep_energy_floor_rel);
         let budget_rel_per_s = st.ledger_budget_rel_per_s;
-        let trial = self.trial_energy_residual_j();
         let scale_j = self.state.energy.scale_j(trial.kinetic_before_j);
         let miss_j = trial.residual_j.abs();
+        let shortest = h <= dt * st.min_substep_fraction;
         if miss_j > rel * trial.flow_j && miss_j > floor_rel * scale_j {
-            return TrialLedger::MadeEnergy;
+            if h > dt * st.made_energy_min_substep_fraction {
+                return TrialLedger::MadeEnergy;
+            }
+            self.core.stats.fallbacks.substep_energy_accepted += 1;
+            return TrialLedger::Sound { budget_used: 0.0 };
         }
         // (the trial's own kinetic energy too: a run from rest, with no
         // drive, has no scale before its first sub-step)
@@ -469,7 +479,11 @@ impl Simulator {
         let budget_used = miss_j / budget_j;
         // (0/0: the control is off, or nothing has an energy yet)
         if budget_used > 1.0 && budget_j > 0.0 {
-            TrialLedger::OverBudget
+            if !shortest {
+                return TrialLedger::OverBudget;
+            }
+            self.core.stats.fallbacks.ledger_budget_exceeded += 1;
+            TrialLedger::Sound { budget_used: 0.0 }
         } else {
             TrialLedger::Sound {
                 budget_used: if budget_j > 0.0 { budget_used } else { 0.0 },
