@@ -126,8 +126,10 @@ pub struct SolverSettings {
     /// deployment, known at the start). The miss of a sub-step of length h
     /// grows as h^3 and its budget as h, so each halving divides the
     /// miss per second by 4; t seconds of fast motion (a ring's final snap)
-    /// add at most about this times t to the run's balance error. 0 turns
-    /// the control off (1/s).
+    /// add at most about this times t to the run's balance error. At the
+    /// shortest sub-step (`min_substep_fraction`) a trial over its budget is
+    /// accepted and counted (`ledger_budget_exceeded`). 0 turns the control
+    /// off (1/s).
     pub ledger_budget_rel_per_s: f64,
     /// A trial sub-step across the contact onset or release of a unilateral
     /// spring (an end stop: `Constraint::contact_distance_m` changes sign) is
