@@ -40,6 +40,10 @@ pub enum SolverError {
         limit_m: f64,
     },
     NonFinite(String),
+    /// Non-finite entries in the constraint Jacobian, as a solver backend
+    /// finds them; `Simulator::step` reports it as `NonFinite`, naming the
+    /// element whose rows hold them.
+    NonFiniteJacobian,
     NoConvergence {
         t_s: f64,
     },
@@ -72,6 +76,7 @@ impl fmt::Display for SolverError {
                  fix the joint positions so that the element's constraints hold, e.g. regenerate the model with `truss-deploy generate`"
             ),
             SolverError::NonFinite(what) => write!(f, "non-finite values in the {what}; check masses, tensions and geometry"),
+            SolverError::NonFiniteJacobian => write!(f, "non-finite values in the constraint Jacobian; check masses, tensions and geometry"),
             SolverError::NoConvergence { t_s } => {
                 write!(f, "the Newmark iteration did not converge in the step ending at t = {t_s:.6} s; use a smaller --dt")
             }

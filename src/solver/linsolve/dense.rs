@@ -70,7 +70,7 @@ impl ConstraintSolver for DenseNullSpace {
         let mut b = DMatrix::<f64>::zeros(jac.nrows.max(1), jac.ncols);
         jac.for_each(|r, c, a| b[(r, c)] += a * inv_mass[c].sqrt());
         if b.iter().any(|v| !v.is_finite()) {
-            return Err(SolverError::NonFinite("constraint Jacobian".into()));
+            return Err(SolverError::NonFiniteJacobian);
         }
         let svd = b.svd(true, true);
         let (u, vt) = (svd.u.expect("u requested"), svd.v_t.expect("v_t requested"));

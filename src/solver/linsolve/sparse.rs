@@ -840,7 +840,7 @@ impl Pattern {
                 + v[o1 + 2] * v[o2 + 2] * inv_mass[c0 + 2];
         }
         if self.s_vals.iter().any(|x| !x.is_finite()) {
-            return Err(SolverError::NonFinite("constraint Jacobian".into()));
+            return Err(SolverError::NonFiniteJacobian);
         }
         Ok(())
     }
@@ -954,7 +954,7 @@ impl ConstraintSolver for SparseSchur {
         }
         // (the sum is NaN or infinite exactly when an entry is)
         if !all_finite(&jac.values) {
-            return Err(SolverError::NonFinite("constraint Jacobian".into()));
+            return Err(SolverError::NonFiniteJacobian);
         }
         // Reuse a kept factorization of the wanted kind for this mass matrix
         // while it still preconditions well; otherwise refactor into its slot

@@ -282,7 +282,7 @@ impl Simulator {
     /// constraint Jacobian names the element whose rows it is in.
     pub fn step(&mut self, dt: f64) -> Result<usize, SolverError> {
         self.step_stages(dt).map_err(|e| match e {
-            SolverError::NonFinite(what) if what == "constraint Jacobian" => {
+            SolverError::NonFiniteJacobian => {
                 let m = &self.model;
                 SolverError::NonFinite(match self.core.jac.non_finite_element() {
                     Some((e, 1)) => format!(
@@ -303,9 +303,9 @@ impl Simulator {
                         m.elements[e].name()
                     ),
                     // (finite entries whose products overflowed)
-                    None => format!(
-                        "{what}'s products (its entries overflowed: the iteration diverged)"
-                    ),
+                    None => "constraint Jacobian's products (its entries overflowed: the \
+                             iteration diverged)"
+                        .to_string(),
                 })
             }
             e => e,
@@ -350,7 +350,8 @@ impl Simulator {
                 Err(
                     SolverError::NoConvergence { .. }
                     | SolverError::Projection { .. }
-                    | SolverError::NonFinite(_),
+                    | SolverError::NonFinite(_)
+                    | SolverError::NonFiniteJacobian,
                 ) if h > dt * st.min_substep_fraction => {
                     self.core.stats.fallbacks.substep_halvings += 1;
                     h_try = 0.5 * h;
