@@ -403,11 +403,8 @@ impl Simulator {
         if open.is_empty() || !open.iter().all(|&e| near(e)) {
             return Ok(None);
         }
-        let (saved, latches) = (self.state.clone(), self.latch_counts());
-        if self.latch_rigid(&open, &|_| t_s).is_err()
-            || self.moved_m(&saved.x) > self.settings.latch_capture_max_move_m
-        {
-            self.undo_latch(saved, latches);
+        let mark = self.latch_mark();
+        if !self.latch_within_reach(&open, t_s, &mark) {
             return Ok(None);
         }
         self.core.stats.fallbacks.latch_closed += open.len() as u64;
@@ -519,64 +516,75 @@ impl Simulator {
     /// latched, None if refused. The copy of the state is made only here,
     /// on a capture path.
     fn capture(&mut self, elements: &[usize]) -> Result<Option<usize>, SolverError> {
-        let (saved, latches) = (self.state.clone(), self.latch_counts());
+        let mark = self.latch_mark();
         let t = self.state.t_s;
         let tol = self.settings.lock_tol_m;
         let mut set = elements.to_vec();
         loop {
-            if self.latch_rigid(&set, &|_| t).is_err() {
-                // (the latch's own projection failed there: as too far a move)
-                self.undo_latch(saved, latches);
-                return Ok(None);
-            }
-            if self.moved_m(&saved.x) > self.settings.latch_capture_max_move_m {
-                self.undo_latch(saved, latches);
+            if !self.latch_within_reach(&set, t, &mark) {
                 return Ok(None);
             }
             let (model, x) = (&self.model, &self.state.x);
             let carried: Vec<usize> = self
                 .capturable()
                 .filter(|&e| {
-                    let (g0, g1) = (gap(model, e, &saved.x), gap(model, e, x));
+                    let (g0, g1) = (gap(model, e, &mark.state.x), gap(model, e, x));
                     g0 * g1 < 0.0 && g1.abs() > tol
                 })
                 .collect();
             if carried.is_empty() {
                 return Ok(Some(set.len()));
             }
-            self.undo_latch(saved.clone(), latches);
+            self.undo_latch(&mark);
             set.extend(carried);
         }
     }
 
-    /// The latch counters a refused latch restores: all latches, those
-    /// latched at their lock once rigid, and those latched closing onto
-    /// every lock (a closing inside a capture that is then refused).
-    pub(super) fn latch_counts(&self) -> (u64, u64, u64) {
-        let stats = &self.core.stats;
-        (
-            stats.latches,
-            stats.latched_at_rigidity,
-            stats.fallbacks.latch_closed,
-        )
+    /// Latches `elements` rigid at `t_s` (a capture, or the closing onto
+    /// every lock) from the state `mark` holds: where the latch's projection
+    /// fails, or moves a joint farther than `latch_capture_max_move_m` from
+    /// where the motion had it (a latch the dynamics never reached, near a
+    /// singular configuration), the state and counters go back to `mark`
+    /// and it returns false.
+    fn latch_within_reach(&mut self, elements: &[usize], t_s: f64, mark: &LatchMark) -> bool {
+        if self.latch_rigid(elements, &|_| t_s).is_err()
+            || self.moved_m(&mark.state.x) > self.settings.latch_capture_max_move_m
+        {
+            self.undo_latch(mark);
+            return false;
+        }
+        true
     }
 
-    /// Back to the state before a refused latch (a capture, or the latch at
-    /// rigidity), with the Jacobian pattern of its locked set and the latch
-    /// counters it had (`latch_counts`).
-    pub(super) fn undo_latch(
-        &mut self,
-        saved: crate::solver::state::State,
-        latches: (u64, u64, u64),
-    ) {
-        self.state = saved;
+    /// What a refused latch restores (`undo_latch`): the state, and the
+    /// latch counters: all latches, those latched at their lock once rigid,
+    /// and those latched closing onto every lock (a closing inside a capture
+    /// that is then refused). A copy of the state: made only on a capture,
+    /// closing or at-rigidity path, never in a plain step.
+    pub(super) fn latch_mark(&self) -> LatchMark {
+        let stats = &self.core.stats;
+        LatchMark {
+            state: self.state.clone(),
+            counts: (
+                stats.latches,
+                stats.latched_at_rigidity,
+                stats.fallbacks.latch_closed,
+            ),
+        }
+    }
+
+    /// Back to the state before a refused latch (a capture, a closing, or
+    /// the latch at rigidity), with the Jacobian pattern of its locked set
+    /// and the latch counters it had (`latch_mark`).
+    pub(super) fn undo_latch(&mut self, mark: &LatchMark) {
+        self.state.clone_from(&mark.state);
         self.core.set_pattern(&self.model, &self.state.locked);
         let stats = &mut self.core.stats;
         (
             stats.latches,
             stats.latched_at_rigidity,
             stats.fallbacks.latch_closed,
-        ) = latches;
+        ) = mark.counts;
     }
 
     /// Another unlocked element whose gap has changed sign (beyond the latch
@@ -592,6 +600,13 @@ impl Simulator {
             Some(target),
         )
     }
+}
+
+/// The state and latch counters before a latch that may be refused
+/// (`Simulator::latch_mark`).
+pub(super) struct LatchMark {
+    state: crate::solver::state::State,
+    counts: (u64, u64, u64),
 }
 
 #[cfg(test)]

@@ -194,10 +194,10 @@ impl Simulator {
         if at_lock.is_empty() {
             return Ok(());
         }
-        let (saved, latches) = (self.state.clone(), self.latch_counts());
+        let mark = self.latch_mark();
         match self.latch_rigid(&at_lock, &|_| t) {
             Ok(()) => self.core.stats.latched_at_rigidity += at_lock.len() as u64,
-            Err(_) => self.undo_latch(saved, latches),
+            Err(_) => self.undo_latch(&mark),
         }
         Ok(())
     }
