@@ -76,6 +76,9 @@ pub struct Model {
     pub inv_mass: Vec<f64>,
     /// Indices into `elements` of the elements that latch (sleeves).
     pub locks: Vec<usize>,
+    /// Indices into `elements` of the unilateral springs (end stops: a
+    /// `Constraint::contact_distance_m`), whose contacts cut the sub-steps.
+    pub contacts: Vec<usize>,
     /// Tolerances and iteration limits of the solver (the model file's
     /// `[solver]` table; defaults when it has none).
     pub solver: SolverSettings,
@@ -250,6 +253,12 @@ impl Model {
             .filter(|(_, e)| e.lock_gap(&p.x0).is_some())
             .map(|(i, _)| i)
             .collect();
+        let contacts = elems
+            .iter()
+            .enumerate()
+            .filter(|(_, e)| e.contact_distance_m(&p.x0).is_some())
+            .map(|(i, _)| i)
+            .collect();
         Ok(Model {
             name: p.name,
             joints: p.joints,
@@ -264,6 +273,7 @@ impl Model {
             mass,
             inv_mass,
             locks,
+            contacts,
             solver: SolverSettings::default(),
             axial_stiffness_n,
             stiffest_compliance_m_per_n,

@@ -422,9 +422,10 @@ impl Simulator {
         let (x0, x1) = (&self.state.x, &self.core.x);
         let s = self
             .model
-            .elements
+            .contacts
             .iter()
-            .filter_map(|el| {
+            .filter_map(|&e| {
+                let el = &self.model.elements[e];
                 let (d0, d1) = (el.contact_distance_m(x0)?, el.contact_distance_m(x1)?);
                 ((d0 > 0.0) != (d1 > 0.0)).then(|| d0 / (d0 - d1))
             })
