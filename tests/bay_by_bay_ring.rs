@@ -250,10 +250,12 @@ fn deploy_to_full_lock(
     let reference = model.reference.clone().unwrap();
     let mut sim = Simulator::new(model, Options::default()).unwrap();
     // (bounded: until_s simulated, until_s / dt steps)
+    let mut reported = 0;
     while !sim.state().deployed {
         assert!(sim.state().t_s < until_s, "not deployed by {until_s} s");
-        sim.step(dt).unwrap();
+        reported += sim.step(dt).unwrap();
     }
+    assert_eq!(reported, sim.state().locks.len(), "the steps' latch events");
     let captured = sim.solver_stats().fallbacks.latch_captured;
     let s = sim.state();
     let m = sim.model();

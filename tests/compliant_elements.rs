@@ -439,7 +439,10 @@ fn creep_until_latched(text: &str, h: f64) -> Simulator {
     let model = parse(text, "creep.toml").unwrap().model;
     let mut sim = Simulator::new(model, Options::default()).unwrap();
     for _ in 0..(3.0 / h).round() as usize {
-        sim.step(h).unwrap();
+        let reported = sim.step(h).unwrap();
+        // (every latch event the step made, captures and those at their
+        // lock once rigid included, is in the count it returns)
+        assert_eq!(reported, sim.state().locks.len(), "{:?}", sim.state().locks);
         if !sim.state().locks.is_empty() {
             break;
         }

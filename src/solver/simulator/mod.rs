@@ -278,7 +278,9 @@ impl Simulator {
     }
 
     /// Advances the state by exactly `dt` seconds, latching elements on the
-    /// way. Returns the number of latch events in this step. A non-finite
+    /// way. Returns the number of latch events in this step (the entries it
+    /// added to the lock table: exact latches, captures, closings and those
+    /// latched at their lock once rigid). A non-finite
     /// constraint Jacobian names the element whose rows it is in.
     pub fn step(&mut self, dt: f64) -> Result<usize, SolverError> {
         self.step_stages(dt).map_err(|e| match e {
@@ -324,7 +326,9 @@ impl Simulator {
             self.restart_accelerations()?;
         }
         let t_end = self.state.t_s + dt;
-        let mut events = 0;
+        // (the step's latch events: the new entries of the lock table, those
+        // latched at their lock once rigid and closings included)
+        let locks_before = self.state.locks.len();
         let mut substeps = 0;
         // Sub-step length: halved when the Newmark iteration does not converge
         // (near singular configurations), doubled back after each success.
@@ -358,7 +362,7 @@ impl Simulator {
                     continue;
                 }
                 Err(e) => {
-                    events += self.capture_or(e)?;
+                    self.capture_or(e)?;
                     continue;
                 }
                 Ok(()) => {}
@@ -390,24 +394,24 @@ impl Simulator {
             // (a failure that left the state as it was: in a latch search;
             // one after the state moved on, in a latch's own projection, stands)
             let before = self.state_mark();
-            events += match self.finish_substep(h) {
-                Ok(n) => n,
+            match self.finish_substep(h) {
+                Ok(_) => {}
                 Err(e) if self.state_mark() == before => {
-                    events += self.capture_or(e)?;
+                    self.capture_or(e)?;
                     continue;
                 }
                 Err(e) => return Err(e),
-            };
+            }
             // (doubling h multiplies the miss by 8 and its budget by 2)
             if budget_used <= 0.25 {
                 h_try = (2.0 * h_try).min(dt);
             }
         }
         self.state.t_s = t_end.max(self.state.t_s);
-        events += self.capture_in_range()?;
+        self.capture_in_range()?;
         self.state.steps += 1;
         self.core.stats.steps += 1;
-        Ok(events)
+        Ok(self.state.locks.len() - locks_before)
     }
 
     /// The computed trial of length h crosses a unilateral spring's contact
