@@ -218,7 +218,13 @@ mod tests {
         // at its own shortest, accepted and counted)
         assert!(made_energy(&mut sim, h * st.min_substep_fraction));
         let accepted = sim.core.stats.fallbacks.substep_energy_accepted;
-        assert!(!made_energy(&mut sim, h * st.made_energy_min_substep_fraction));
-        assert_eq!(sim.core.stats.fallbacks.substep_energy_accepted, accepted + 1);
+        assert!(!made_energy(
+            &mut sim,
+            h * st.made_energy_min_substep_fraction
+        ));
+        assert_eq!(
+            sim.core.stats.fallbacks.substep_energy_accepted,
+            accepted + 1
+        );
     }
 }
