@@ -302,14 +302,25 @@ fn deploy_to_full_lock(
 }
 
 /// Spearman's rank correlation of the bays' latch times with their position
-/// along the drive cable (bay k is the k-th diagonal from the motor).
+/// along the drive cable (bay k is the k-th diagonal from the motor). Bays
+/// latching at the same instant (within 1e-6 s, as `distinct` counts them)
+/// share their mean rank: ranked in index order instead, a tie would count
+/// as the very ordering along the cable that is measured.
 fn rank_correlation(times: &[f64]) -> f64 {
     let n = times.len();
     let mut order: Vec<usize> = (0..n).collect();
     order.sort_by(|&a, &b| times[a].total_cmp(&times[b]));
     let mut rank = vec![0.0; n];
-    for (r, &k) in order.iter().enumerate() {
-        rank[k] = r as f64;
+    let mut i = 0;
+    while i < n {
+        let mut j = i;
+        while j + 1 < n && times[order[j + 1]] - times[order[i]] < 1e-6 {
+            j += 1;
+        }
+        for &k in &order[i..=j] {
+            rank[k] = 0.5 * (i + j) as f64;
+        }
+        i = j + 1;
     }
     let mean = (n as f64 - 1.0) / 2.0;
     let (mut num, mut den) = (0.0, 0.0);
