@@ -214,17 +214,26 @@ mod tests {
             *v *= 2.0;
         }
         assert!(made_energy(&mut sim, h));
-        // (below the other halvings' shortest sub-step it is still halved;
-        // at its own shortest, accepted and counted)
-        assert!(made_energy(&mut sim, h * st.min_substep_fraction));
+        // (at the other halvings' shortest sub-step it is still halved...
+        let shortest = h * st.min_substep_fraction;
+        assert!(made_energy(&mut sim, shortest));
+        // ... but not where half the length misses as much (the same trial
+        // here: a miss that does not fall with h is not the step's error),
         let accepted = sim.core.stats.fallbacks.substep_energy_accepted;
+        assert!(!made_energy(&mut sim, 0.5 * shortest));
+        assert_eq!(
+            sim.core.stats.fallbacks.substep_energy_accepted,
+            accepted + 1
+        );
+        // nor at its own shortest: accepted and counted
+        assert!(made_energy(&mut sim, shortest));
         assert!(!made_energy(
             &mut sim,
             h * st.made_energy_min_substep_fraction
         ));
         assert_eq!(
             sim.core.stats.fallbacks.substep_energy_accepted,
-            accepted + 1
+            accepted + 2
         );
     }
 }

@@ -74,6 +74,9 @@ pub struct Simulator {
     /// (`Model::drive_work_to_reference_j`): the ledger budget's scale
     /// before the run's own energy grows to it.
     drive_work_ref_j: f64,
+    /// The last trial that made energy and was halved: its length and miss
+    /// (s, J), for the halvings below the shortest sub-step (`trial_ledger`).
+    made_energy_halved: Option<(f64, f64)>,
 }
 
 impl Simulator {
@@ -94,6 +97,7 @@ impl Simulator {
             interp: vec![0.0; n],
             x_start: vec![0.0; n],
             drive_work_ref_j: 0.0,
+            made_energy_halved: None,
         };
         sim.drive_work_ref_j = sim.model.drive_work_to_reference_j();
         sim.initialize()?;
@@ -448,7 +452,8 @@ impl Simulator {
     ///   energy scale (`Energy::scale_j`): a Newmark solution that made
     ///   energy no force accounts for. Down to
     ///   `made_energy_min_substep_fraction` of the step, below the shortest
-    ///   sub-step of the other halvings; there `Sound` (counted as
+    ///   sub-step of the other halvings while each halving at least halves
+    ///   the miss per second; else `Sound` (counted as
     ///   `substep_energy_accepted`).
     /// - `OverBudget`: |r| > b h E with b = `ledger_budget_rel_per_s` and E
     ///   the largest of the run's scale, the trial's kinetic energy and the
@@ -468,8 +473,22 @@ impl Simulator {
         let scale_j = self.state.energy.scale_j(trial.kinetic_before_j);
         let miss_j = trial.residual_j.abs();
         let shortest = h <= dt * st.min_substep_fraction;
+        let halved = self.made_energy_halved.take();
         if miss_j > rel * trial.flow_j && miss_j > floor_rel * scale_j {
-            if h > dt * st.made_energy_min_substep_fraction {
+            // (at and below the shortest sub-step, only while halving helps:
+            // a trial of half the length that misses more than a quarter as
+            // much has not halved the miss per second; that energy is not
+            // the step length's error, which falls as h^3, but a power the
+            // solution makes near the singular state, and shorter sub-steps
+            // would add up as much of it over the same time)
+            let helps = match halved {
+                Some((h_prev, miss_prev)) if (h_prev / h - 2.0).abs() < 1e-9 => {
+                    miss_j < 0.25 * miss_prev
+                }
+                _ => true,
+            };
+            if h > dt * st.made_energy_min_substep_fraction && (!shortest || helps) {
+                self.made_energy_halved = Some((h, miss_j));
                 return TrialLedger::MadeEnergy;
             }
             self.core.stats.fallbacks.substep_energy_accepted += 1;
