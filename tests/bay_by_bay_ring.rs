@@ -398,11 +398,11 @@ fn the_bundled_ring_deploys_to_full_lock_bay_by_bay_and_friction_orders_it() {
 /// The 36-sided ring as `generate ring --sides 36 --inner-chord-m 0.7353
 /// --stroke-stops 1e4 --gear-stiffness 1000 --latch-capture-m 1e-4 [--mu
 /// 0.02]` writes it (README, docs/double_ring_stowing.md, Sessions 11 to
-/// 14) does the same. About 17 and 8 minutes of release build (mu 0.005,
+/// 14) does the same. About 9-10 minutes of release build each (mu 0.005,
 /// mu 0.02, the machine shared with another run):
 /// `cargo test --release --test bay_by_bay_ring -- --ignored`.
 #[test]
-#[ignore = "two runs of ~17 and ~8 min in release; cargo test --release --test bay_by_bay_ring -- --ignored"]
+#[ignore = "two runs of ~10 min each in release; cargo test --release --test bay_by_bay_ring -- --ignored"]
 fn a_36_sided_ring_deploys_to_full_lock_bay_by_bay_and_friction_orders_it() {
     let p = |mu: f64| {
         let d = RingParams::bay_by_bay();
