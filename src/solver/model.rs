@@ -247,18 +247,13 @@ impl Model {
         if !stiffest_compliance_m_per_n.is_finite() {
             stiffest_compliance_m_per_n = 1.0 / axial_stiffness_n; // no members at all
         }
-        let locks = elems
-            .iter()
-            .enumerate()
-            .filter(|(_, e)| e.lock_gap(&p.x0).is_some())
-            .map(|(i, _)| i)
-            .collect();
-        let contacts = elems
-            .iter()
-            .enumerate()
-            .filter(|(_, e)| e.contact_distance_m(&p.x0).is_some())
-            .map(|(i, _)| i)
-            .collect();
+        // (the elements that latch, and the end stops, by what they answer
+        // at the initial positions)
+        let indices = |has: &dyn Fn(&dyn Constraint) -> bool| -> Vec<usize> {
+            (0..elems.len()).filter(|&i| has(elems[i].as_ref())).collect()
+        };
+        let locks = indices(&|e| e.lock_gap(&p.x0).is_some());
+        let contacts = indices(&|e| e.contact_distance_m(&p.x0).is_some());
         Ok(Model {
             name: p.name,
             joints: p.joints,
