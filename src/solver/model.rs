@@ -250,7 +250,9 @@ impl Model {
         // (the elements that latch, and the end stops, by what they answer
         // at the initial positions)
         let indices = |has: &dyn Fn(&dyn Constraint) -> bool| -> Vec<usize> {
-            (0..elems.len()).filter(|&i| has(elems[i].as_ref())).collect()
+            (0..elems.len())
+                .filter(|&i| has(elems[i].as_ref()))
+                .collect()
         };
         let locks = indices(&|e| e.lock_gap(&p.x0).is_some());
         let contacts = indices(&|e| e.contact_distance_m(&p.x0).is_some());
