@@ -393,12 +393,10 @@ impl Simulator {
             .copied()
             .filter(|&e| !s.locked[e])
             .collect();
-        // (each a rigid latch, not engaging: what `capturable` admits)
+        // (each one a capture may latch)
         let near = |e: usize| {
             let range = close_m.max(model.elements[e].capture_range_m());
-            !self.engaged(e)
-                && model.elements[e].latch_spring().is_none()
-                && gap(model, e, &s.x).abs() <= range
+            self.is_capturable(e) && gap(model, e, &s.x).abs() <= range
         };
         if open.is_empty() || !open.iter().all(|&e| near(e)) {
             return Ok(None);
@@ -494,11 +492,17 @@ impl Simulator {
 
     /// The sleeves a capture may latch: unlatched, not engaging, with a rigid
     /// latch (a compliant latch's transient is its answer: not captured).
-    fn capturable(&self) -> impl Iterator<Item = usize> + '_ {
-        let (model, s) = (&self.model, &self.state);
-        model.locks.iter().copied().filter(move |&e| {
-            !s.locked[e] && !self.engaged(e) && model.elements[e].latch_spring().is_none()
-        })
+    pub(super) fn capturable(&self) -> impl Iterator<Item = usize> + '_ {
+        self.model
+            .locks
+            .iter()
+            .copied()
+            .filter(move |&e| self.is_capturable(e))
+    }
+
+    /// Whether the lockable element `e` is one `capturable` admits.
+    fn is_capturable(&self, e: usize) -> bool {
+        !self.state.locked[e] && !self.engaged(e) && self.model.elements[e].latch_spring().is_none()
     }
 
     /// Latches `elements` rigid where they stand (a capture; the caller

@@ -174,16 +174,9 @@ impl Simulator {
                 .fold(f64::NEG_INFINITY, f64::max)
         };
         let (model, s, tol) = (&self.model, &self.state, self.settings.latch_tol_m());
-        let at_lock: Vec<usize> = model
-            .locks
-            .iter()
-            .copied()
-            .filter(|&e| {
-                !s.locked[e]
-                    && !self.engaged(e)
-                    && model.elements[e].latch_spring().is_none()
-                    && gap(model, e, &s.x).abs() <= tol
-            })
+        let at_lock: Vec<usize> = self
+            .capturable()
+            .filter(|&e| gap(model, e, &s.x).abs() <= tol)
             .collect();
         // some farther than the tolerance, all within reach: the truss
         // closes onto all its locks

@@ -399,7 +399,7 @@ impl Simulator {
             // one after the state moved on, in a latch's own projection, stands)
             let before = self.state_mark();
             match self.finish_substep(h) {
-                Ok(_) => {}
+                Ok(()) => {}
                 Err(e) if self.state_mark() == before => {
                     self.capture_or(e)?;
                     continue;
@@ -549,8 +549,8 @@ impl Simulator {
     /// to their lock the step map did not confirm (e.g. the ring's radial
     /// sleeves, whose length is least at the flat state its diagonals latch
     /// in): the full-step trial is restored and the search goes on without
-    /// them. Returns the latch events.
-    fn finish_substep(&mut self, h: f64) -> Result<usize, SolverError> {
+    /// them.
+    fn finish_substep(&mut self, h: f64) -> Result<(), SolverError> {
         let mut not_real: Vec<usize> = Vec::new();
         loop {
             let Some((target, s_hi)) = self.first_crossing(h, &not_real) else {
@@ -560,11 +560,10 @@ impl Simulator {
                 if !self.state.transients.is_empty() {
                     self.x_start.copy_from_slice(&self.state.x);
                 }
-                let settled = self.settle_transients()?;
-                if settled > 0 {
+                if self.settle_transients()? > 0 {
                     self.check_nothing_missed()?;
                 }
-                return Ok(settled);
+                return Ok(());
             };
             if s_hi < 1.0 {
                 self.core.save_trial(&mut self.trial_copy);
@@ -573,12 +572,13 @@ impl Simulator {
                 Some(h_star) => {
                     self.x_start.copy_from_slice(&self.state.x);
                     self.accept(h_star);
-                    let settled = self.settle_transients()?;
-                    let latched = settled + self.latch()? + self.capture_swept()?;
+                    self.settle_transients()?;
+                    self.latch()?;
+                    self.capture_swept()?;
                     // Nothing may have passed its lock without latching
                     // (a target short of its lock goes on in the next sub-step).
                     self.check_nothing_missed()?;
-                    return Ok(latched);
+                    return Ok(());
                 }
                 None => {
                     self.core.stats.fallbacks.dips_rejected += 1;
