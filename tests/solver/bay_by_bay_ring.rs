@@ -400,9 +400,9 @@ fn the_bundled_ring_deploys_to_full_lock_bay_by_bay_and_friction_orders_it() {
 /// 0.02]` writes it (README, docs/double_ring_stowing.md, Sessions 11 to
 /// 14) does the same. About 9-10 minutes of release build each (mu 0.005,
 /// mu 0.02, the machine shared with another run):
-/// `cargo test --release --test bay_by_bay_ring -- --ignored`.
+/// `cargo test --release --test solver bay_by_bay_ring:: -- --ignored`.
 #[test]
-#[ignore = "two runs of ~10 min each in release; cargo test --release --test bay_by_bay_ring -- --ignored"]
+#[ignore = "two runs of ~10 min each in release; cargo test --release --test solver bay_by_bay_ring:: -- --ignored"]
 fn a_36_sided_ring_deploys_to_full_lock_bay_by_bay_and_friction_orders_it() {
     let p = |mu: f64| {
         let d = RingParams::bay_by_bay();

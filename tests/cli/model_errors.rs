@@ -78,7 +78,7 @@ friction_mu = 0.005
 "#;
 
 /// The shipped mast model, as written by `truss-deploy generate mast`.
-const MAST: &str = include_str!("../models/pantograph_mast.toml");
+const MAST: &str = include_str!("../../models/pantograph_mast.toml");
 
 /// Applies (old, new) replacements; each `old` must occur exactly once.
 fn mutate(edits: &[(&str, &str)]) -> String {

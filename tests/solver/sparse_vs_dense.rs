@@ -397,7 +397,7 @@ fn single_solves_match_dense_with_redundant_rows() {
 }
 
 /// Per-step timings, dense vs sparse (run with
-/// `cargo test --release --no-default-features --test sparse_vs_dense -- --ignored --nocapture`).
+/// `cargo test --release --no-default-features --test solver sparse_vs_dense:: -- --ignored --nocapture`).
 #[test]
 #[ignore]
 fn timing_dense_vs_sparse() {
