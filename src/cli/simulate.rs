@@ -11,7 +11,7 @@
 use super::output::{check_outputs, write_atomic, AtomicFile};
 use super::{interrupt, make_simulator_from, plot, Failure, SolverArg};
 use crate::solver::checks::{self, HeldShortWatch, RunChecks, StallWatch};
-use crate::solver::{Energy, LockEvent, Simulator, SolverStats};
+use crate::solver::{Energy, LockEvent, Simulator, SolverError, SolverStats, StepLimits, StopWhy};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
 use serde::Serialize;
@@ -278,6 +278,14 @@ pub fn run(a: SimulateArgs) -> Result<(), Failure> {
     );
     interrupt::install();
     let start = Instant::now();
+    // (checked inside a step too: one step near a singular state can run
+    // for minutes)
+    sim.set_step_limits(StepLimits {
+        deadline: a
+            .max_wall_s
+            .map(|limit| start + std::time::Duration::from_secs_f64(limit)),
+        cancel: Some(interrupt::flag()),
+    });
     let mut stall = StallWatch::new(sim.model(), &checks);
     let mut held = HeldShortWatch::new(sim.model(), &checks);
     let stop: (StopReason, String) = loop {
@@ -322,20 +330,11 @@ pub fn run(a: SimulateArgs) -> Result<(), Failure> {
             };
         }
         if interrupt::requested() {
-            break (
-                StopReason::Interrupted,
-                format!("interrupted by a signal at t = {:.6} s", s.t_s),
-            );
+            break interrupted_stop(s.t_s);
         }
         if let Some(limit) = a.max_wall_s {
             if start.elapsed().as_secs_f64() > limit {
-                break (
-                    StopReason::Error,
-                    format!(
-                        "the wall-clock limit --max-wall-s {limit} s was reached at t = {:.6} s",
-                        s.t_s
-                    ),
-                );
+                break wall_limit_stop(limit, s.t_s);
             }
         }
         if s.steps >= checks.max_steps {
@@ -349,6 +348,12 @@ pub fn run(a: SimulateArgs) -> Result<(), Failure> {
         }
         let h = dt.min(until - s.t_s);
         if let Err(e) = sim.step(h) {
+            if let SolverError::Stopped { t_s, why } = e {
+                break match why {
+                    StopWhy::Cancelled => interrupted_stop(t_s),
+                    StopWhy::Deadline => wall_limit_stop(a.max_wall_s.unwrap_or(0.0), t_s),
+                };
+            }
             break (
                 StopReason::Error,
                 format!(
@@ -607,4 +612,20 @@ fn print_summary(s: &SimulateJson) {
             }
         }
     }
+}
+
+/// The stop of a run a signal interrupted at t_s.
+fn interrupted_stop(t_s: f64) -> (StopReason, String) {
+    (
+        StopReason::Interrupted,
+        format!("interrupted by a signal at t = {t_s:.6} s"),
+    )
+}
+
+/// The stop of a run that reached its `--max-wall-s` limit at t_s.
+fn wall_limit_stop(limit_s: f64, t_s: f64) -> (StopReason, String) {
+    (
+        StopReason::Error,
+        format!("the wall-clock limit --max-wall-s {limit_s} s was reached at t = {t_s:.6} s"),
+    )
 }

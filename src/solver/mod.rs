@@ -22,7 +22,7 @@ pub mod vec3;
 pub use linsolve::SolverKind;
 pub use model::{Cable, Joint, Model, ModelParts};
 pub use settings::SolverSettings;
-pub use simulator::{Options, Simulator};
+pub use simulator::{Options, Simulator, StepLimits};
 pub use state::{Energy, LockEvent, State};
 pub use stats::SolverStats;
 
@@ -64,6 +64,22 @@ pub enum SolverError {
         t_s: f64,
         gap_m: f64,
     },
+    /// The step gave up early at a limit its caller set
+    /// (`Simulator::set_step_limits`): the state is the last sub-step it
+    /// accepted, at `t_s`, short of the step's end.
+    Stopped {
+        t_s: f64,
+        why: StopWhy,
+    },
+}
+
+/// Which of the caller's step limits stopped a step (`SolverError::Stopped`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StopWhy {
+    /// The wall-clock deadline passed.
+    Deadline,
+    /// The cancel flag was raised (a signal, another thread).
+    Cancelled,
 }
 
 impl fmt::Display for SolverError {
@@ -94,6 +110,14 @@ impl fmt::Display for SolverError {
                 f,
                 "`{element}` passed its lock without latching (gap {gap_m:.3e} m at t = {t_s:.9} s); \
                  tighten [solver] root_tol_m or use a smaller --dt"
+            ),
+            SolverError::Stopped { t_s, why } => write!(
+                f,
+                "the step was stopped at t = {t_s:.6} s, inside it: {}",
+                match why {
+                    StopWhy::Deadline => "the wall-clock deadline passed",
+                    StopWhy::Cancelled => "a stop was requested",
+                }
             ),
         }
     }

@@ -747,3 +747,52 @@ fn a_sleeve_held_short_by_a_latch_stops_the_run_naming_it() {
     let o = simulate();
     assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
 }
+
+/// `--max-wall-s` holds inside a step too: one step over the ring's whole
+/// deployment (`--dt 2000`, sub-steps as short as the motion needs and no cap
+/// on their number, so the step grinds for seconds instead of failing) stops
+/// within a second of the limit, as `error` (exit 1) at a time inside the
+/// step, with the summary written.
+#[test]
+fn the_wall_limit_stops_a_run_inside_one_long_step() {
+    let d = temp_dir("wall_limit_in_step");
+    let ring = std::fs::read_to_string(model("double_ring.toml")).unwrap();
+    let at = ring.find("[[joint]]").unwrap();
+    let m = d.join("ring.toml");
+    let solver = "[solver]\nmin_substep_fraction = 1e-7\nmade_energy_min_substep_fraction = 1e-9\n\
+                  max_substeps = 1000000000\n\n";
+    std::fs::write(&m, format!("{}{solver}{}", &ring[..at], &ring[at..])).unwrap();
+    let j = d.join("s.json");
+    let limit_s = 1.0;
+    let t0 = Instant::now();
+    let o = run(&[
+        "simulate",
+        &m.display().to_string(),
+        "--dt",
+        "2000",
+        "--max-wall-s",
+        &limit_s.to_string(),
+        "--json",
+        &j.display().to_string(),
+    ]);
+    let wall = t0.elapsed().as_secs_f64();
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o.stderr));
+    let s = read_json(&j);
+    assert_eq!(s["stop_reason"], "error", "{s:#}");
+    let msg = s["stop_message"].as_str().unwrap();
+    assert!(
+        msg.contains("the wall-clock limit --max-wall-s 1 s was reached at t = "),
+        "{msg}"
+    );
+    // (inside the first step: none completed, the time moved on)
+    assert_eq!(s["steps"], 0, "{s:#}");
+    let t_stop: f64 = msg
+        .rsplit("t = ")
+        .next()
+        .and_then(|r| r.trim_end_matches(" s").parse().ok())
+        .expect("the stop time in the message");
+    assert!(t_stop > 0.0 && t_stop < 2000.0, "{msg}");
+    let run_wall = s["wall_time_s"].as_f64().unwrap();
+    assert!(run_wall < limit_s + 1.0, "the run went on {run_wall} s");
+    assert!(wall < limit_s + 10.0, "the process took {wall} s");
+}

@@ -11,3 +11,4 @@ mod latch_loads;
 mod sail_array;
 mod solver_settings;
 mod sparse_vs_dense;
+mod step_limits;

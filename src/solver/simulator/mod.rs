@@ -37,7 +37,10 @@ use super::model::Model;
 use super::settings::SolverSettings;
 use super::state::{Energy, State};
 use super::stats::SolverStats;
-use super::SolverError;
+use super::{SolverError, StopWhy};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::Instant;
 
 /// How to run a model: the backend. Every numeric setting is the model's
 /// ([`Model::solver`], from the model file's `[solver]` table).
@@ -50,6 +53,34 @@ impl Default for Options {
     fn default() -> Self {
         Options {
             solver: SolverKind::Sparse,
+        }
+    }
+}
+
+/// When a step gives up before its end (`SolverError::Stopped`), checked
+/// before every sub-step: a step near a singular state can take thousands of
+/// sub-steps, and a caller's wall limit or signal must not wait for them.
+#[derive(Clone, Debug, Default)]
+pub struct StepLimits {
+    /// The wall-clock instant past which no sub-step starts.
+    pub deadline: Option<Instant>,
+    /// A flag that, once raised, stops the step before its next sub-step.
+    pub cancel: Option<Arc<AtomicBool>>,
+}
+
+impl StepLimits {
+    /// Which limit holds now, if any.
+    fn reached(&self) -> Option<StopWhy> {
+        if self
+            .cancel
+            .as_ref()
+            .is_some_and(|c| c.load(Ordering::Relaxed))
+        {
+            Some(StopWhy::Cancelled)
+        } else if self.deadline.is_some_and(|d| Instant::now() >= d) {
+            Some(StopWhy::Deadline)
+        } else {
+            None
         }
     }
 }
@@ -77,6 +108,8 @@ pub struct Simulator {
     /// The last trial that made energy and was halved: its length and miss
     /// (s, J), for the halvings below the shortest sub-step (`trial_ledger`).
     made_energy_halved: Option<(f64, f64)>,
+    /// The caller's limits on a step's wall time.
+    limits: StepLimits,
 }
 
 impl Simulator {
@@ -98,6 +131,7 @@ impl Simulator {
             x_start: vec![0.0; n],
             drive_work_ref_j: 0.0,
             made_energy_halved: None,
+            limits: StepLimits::default(),
         };
         sim.drive_work_ref_j = sim.model.drive_work_to_reference_j();
         sim.initialize()?;
@@ -205,6 +239,13 @@ impl Simulator {
             .iter()
             .find(|t| t.element == element)
             .map(|t| t.force_n)
+    }
+
+    /// Sets when a step gives up early (`SolverError::Stopped`, the state
+    /// left at its last accepted sub-step): a wall-clock deadline, a cancel
+    /// flag. None by default.
+    pub fn set_step_limits(&mut self, limits: StepLimits) {
+        self.limits = limits;
     }
 
     /// Sets a cable's motor-end tension from the next step on.
@@ -338,6 +379,12 @@ impl Simulator {
         // (near singular configurations), doubled back after each success.
         let mut h_try = dt;
         while t_end - self.state.t_s > self.settings.step_end_rel * dt {
+            if let Some(why) = self.limits.reached() {
+                return Err(SolverError::Stopped {
+                    t_s: self.state.t_s,
+                    why,
+                });
+            }
             substeps += 1;
             if substeps > self.settings.max_substeps + 4 * self.model.locks.len() {
                 return Err(SolverError::Invalid(format!(
