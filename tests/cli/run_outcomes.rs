@@ -784,14 +784,16 @@ fn the_wall_limit_stops_a_run_inside_one_long_step() {
         msg.contains("the wall-clock limit --max-wall-s 1 s was reached at t = "),
         "{msg}"
     );
-    // (inside the first step: none completed, the time moved on)
+    // (inside the first step: none completed; its first sub-steps are
+    // halvings from 2000 s down to what converges, so the time may not have
+    // moved yet)
     assert_eq!(s["steps"], 0, "{s:#}");
     let t_stop: f64 = msg
         .rsplit("t = ")
         .next()
         .and_then(|r| r.trim_end_matches(" s").parse().ok())
         .expect("the stop time in the message");
-    assert!(t_stop > 0.0 && t_stop < 2000.0, "{msg}");
+    assert!((0.0..2000.0).contains(&t_stop), "{msg}");
     let run_wall = s["wall_time_s"].as_f64().unwrap();
     assert!(run_wall < limit_s + 1.0, "the run went on {run_wall} s");
     assert!(wall < limit_s + 10.0, "the process took {wall} s");
