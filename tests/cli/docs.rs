@@ -1,6 +1,6 @@
 //! The documentation against the program: docs/model-format.md lists exactly
-//! the keys the model loader accepts, docs/solver.md names every setting and
-//! counter, the README's commands run as shown.
+//! the keys the model loader accepts, the README's commands run as shown, and
+//! `--version` names the version and the commit.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -318,4 +318,31 @@ fn readme_first_commands_are_the_two_a_newcomer_needs() {
     );
     let words = readme.split_whitespace().count();
     assert!(words <= 1200, "README.md has {words} words (at most 1200)");
+}
+
+#[test]
+fn version_names_the_version_and_the_commit() {
+    let o = Command::new(BIN)
+        .arg("--version")
+        .output()
+        .expect("run truss-deploy");
+    assert!(o.status.success());
+    let text = String::from_utf8_lossy(&o.stdout);
+    let version = env!("CARGO_PKG_VERSION");
+    assert!(text.contains(version), "`{text}` lacks {version}");
+    // the commit: 7 or more hex digits, or "unknown" outside a git checkout
+    let commit = text
+        .split(|c: char| c.is_whitespace() || c == '(' || c == ')')
+        .find(|w| *w == "unknown" || (w.len() >= 7 && w.chars().all(|c| c.is_ascii_hexdigit())));
+    assert!(commit.is_some(), "`{text}` names no commit");
+    if manifest().join(".git").exists() {
+        let head = Command::new("git")
+            .args(["rev-parse", "--short", "HEAD"])
+            .current_dir(manifest())
+            .output();
+        if let Some(h) = head.ok().filter(|h| h.status.success()) {
+            let head = String::from_utf8_lossy(&h.stdout).trim().to_string();
+            assert!(text.contains(&head), "`{text}` is not HEAD's commit {head}");
+        }
+    }
 }
