@@ -31,7 +31,15 @@ fn main() {
     // packed-refs (a ref packed by gc); --git-path resolves them in a worktree too.
     let mut paths = vec![git(&["rev-parse", "--git-path", "HEAD"])];
     if let Some(branch) = git(&["symbolic-ref", "-q", "HEAD"]) {
-        paths.push(git(&["rev-parse", "--git-path", &branch]));
+        let loose = git(&["rev-parse", "--git-path", &branch]);
+        // (a branch only in packed-refs: the loose file a commit creates
+        // appears in its directory)
+        paths.push(match loose {
+            Some(l) if !Path::new(&l).exists() => {
+                Path::new(&l).parent().map(|d| d.display().to_string())
+            }
+            other => other,
+        });
     }
     paths.push(git(&["rev-parse", "--git-path", "packed-refs"]));
     for p in paths.into_iter().flatten() {
