@@ -2,8 +2,8 @@
 //! initial state (every sleeve that starts at its lock latched), relative to
 //! the largest, with the element rows and joint coordinates each one's
 //! singular vectors weigh most: where a configuration is close to losing
-//! rank (e.g. a ring near its flat deployed state, docs/double_ring_stowing.md
-//! "Session 9"). Start it from a run's state with
+//! rank (e.g. a ring near its flat deployed state, docs/double_ring_stowing.md,
+//! "The 36-sided ring's endgame is a near-singular configuration"). Start it from a run's state with
 //! docs/double_ring_variants/restart_from_csv.py.
 //!
 //!     cargo run --release --example near_singular -- MODEL.toml [COUNT]

@@ -24,7 +24,7 @@ pub(crate) fn warn(message: &str) {
 #[derive(Parser, Debug)]
 #[command(
     name = "truss-deploy",
-    version,
+    version = concat!(env!("CARGO_PKG_VERSION"), " (commit ", env!("TRUSS_DEPLOY_COMMIT"), ")"),
     about = "Deployment dynamics of space deployable truss structures"
 )]
 struct Cli {
@@ -35,25 +35,45 @@ struct Cli {
 #[derive(Subcommand, Debug)]
 enum Cmd {
     /// Run offline to full deployment (or --until); summary and lock table on stdout.
+    #[command(
+        after_help = "Example: truss-deploy simulate models/pantograph_mast.toml --json run.json\n\nStop reasons, exit statuses and the JSON keys: docs/cli.md"
+    )]
     Simulate(simulate::SimulateArgs),
     /// Rank, mechanisms, states of self-stress and redundant rows, before and after all locks.
+    #[command(
+        after_help = "Example: truss-deploy analyze models/double_ring.toml --json mobility.json"
+    )]
     Analyze(AnalyzeArgs),
     /// Write a parametric model file.
+    #[command(
+        after_help = "Example: truss-deploy generate mast --units 8 -o mast8.toml\n\nThe format it writes: docs/model-format.md"
+    )]
     Generate(GenerateArgs),
     /// Time the stepping loop (no I/O).
+    #[command(
+        after_help = "Example: truss-deploy bench models/double_ring_synchronized.toml --steps 500 --json bench.json"
+    )]
     Bench(BenchArgs),
     /// Run the ROS 2 node: step in real time, publish over DDS (see launch_notes.md).
     #[cfg(feature = "ros")]
+    #[command(
+        after_help = "Example: truss-deploy node models/pantograph_mast.toml --rate 50 --record live.mcap"
+    )]
     Node(crate::node::NodeArgs),
     /// Drive a running node: ease the cable tension as deploy_fraction nears 1
     /// (`--offline MODEL`: compare with constant tension in-process, no DDS).
     #[cfg(feature = "ros")]
+    #[command(
+        after_help = "Example: truss-deploy controller --offline models/pantograph_mast.toml"
+    )]
     Controller(crate::node::controller::ControllerArgs),
 }
 
 #[derive(Args, Debug)]
 struct AnalyzeArgs {
+    /// Model file (TOML).
     model: PathBuf,
+    /// Write the counts, the redundant rows and the rows per element as JSON.
     #[arg(long)]
     json: Option<PathBuf>,
 }
@@ -70,6 +90,7 @@ struct GenerateArgs {
     /// What to generate: `mast` (pantograph mast, 1-500 units), `ring` (double-ring truss,
     /// 6-360 sides), `sail` (sail array, 1-100 bays).
     kind: Kind,
+    /// Model file to write (TOML).
     #[arg(short = 'o', long = "output")]
     output: PathBuf,
     /// mast: number of scissor units (1 to 500).
@@ -160,12 +181,16 @@ struct GenerateArgs {
 
 #[derive(Args, Debug)]
 struct BenchArgs {
+    /// Model file (TOML).
     model: PathBuf,
+    /// Linear solver: sparse (range-space LDL^T and conjugate gradients) or dense (SVD, the
+    /// paper's null-space method).
     #[arg(long, value_enum, default_value_t = SolverArg::Sparse)]
     solver: SolverArg,
     /// Steps to time (1 to 1,000,000).
     #[arg(long, default_value_t = 200)]
     steps: usize,
+    /// Write the median time per step and the real-time factor as JSON.
     #[arg(long)]
     json: Option<PathBuf>,
 }

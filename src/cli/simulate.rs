@@ -21,6 +21,7 @@ use std::time::Instant;
 
 #[derive(Args, Debug)]
 pub struct SimulateArgs {
+    /// Model file (TOML).
     model: PathBuf,
     /// Time step (s); default: the model's `dt_s`. At least 1e-9 of the run, at most all of it.
     #[arg(long, allow_negative_numbers = true)]
@@ -51,6 +52,8 @@ pub struct SimulateArgs {
     /// by impulse, the hardest and the last latch labelled (SVG).
     #[arg(long, value_name = "FILE.svg")]
     latch_plot: Option<PathBuf>,
+    /// Linear solver: sparse (range-space LDL^T and conjugate gradients) or dense (SVD, the
+    /// paper's null-space method); the same motion.
     #[arg(long, value_enum, default_value_t = SolverArg::Sparse)]
     solver: SolverArg,
     /// Record the run as a ROS 2 MCAP file: the node's topics, log time = simulation time.
@@ -569,7 +572,7 @@ fn print_summary(s: &SimulateJson) {
             "                 more than a tenth of the solves did not converge: the constraints \
              are nearly redundant here (a configuration close to singular, such as a ring's \
              last bays near flat; `cargo run --release --example near_singular` on a restart, \
-             docs/double_ring_stowing.md Session 9), which is what makes such a run slow"
+             docs/double_ring_stowing.md, \"The 36-sided ring's endgame\"), which is what makes such a run slow"
         );
     }
     if !s.locks.is_empty() {

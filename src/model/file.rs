@@ -209,6 +209,73 @@ struct FileSpec {
     cables: Vec<Spanned<CableSpec>>,
 }
 
+/// The keys of a `[[element]]` entry besides its type's parameters
+/// (`ElementEntry`'s fields; its flattened parameter map hides them from
+/// [`struct_keys`]). The parameters of each type are `elements::REGISTRY`'s.
+pub const ELEMENT_KEYS: &[&str] = &["type", "name", "joints"];
+
+/// Every table of the model file and the keys it takes, read from the
+/// loader's own serde structs (so the list cannot drift from what `parse`
+/// accepts): `""` is the top level (the table names), then `model`,
+/// `settings`, `checks`, `solver`, `joint`, `element` (without the
+/// per-type parameters) and `cable`. docs/model-format.md documents each
+/// (tests/cli/docs.rs).
+pub fn file_keys() -> Vec<(&'static str, &'static [&'static str])> {
+    vec![
+        ("", struct_keys::<FileSpec>()),
+        ("model", struct_keys::<Header>()),
+        ("settings", struct_keys::<Settings>()),
+        ("checks", struct_keys::<ChecksSpec>()),
+        ("solver", struct_keys::<SolverSettings>()),
+        ("joint", struct_keys::<JointSpec>()),
+        ("element", ELEMENT_KEYS),
+        ("cable", struct_keys::<CableSpec>()),
+    ]
+}
+
+/// The field names serde's derive passes to `deserialize_struct`: a probe
+/// deserializer records them and stops.
+fn struct_keys<T: serde::de::DeserializeOwned>() -> &'static [&'static str] {
+    use serde::de::Visitor;
+    #[derive(Debug)]
+    struct Stop;
+    impl fmt::Display for Stop {
+        fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+            f.write_str("probe")
+        }
+    }
+    impl std::error::Error for Stop {}
+    impl serde::de::Error for Stop {
+        fn custom<M: fmt::Display>(_: M) -> Self {
+            Stop
+        }
+    }
+    struct Probe<'a>(&'a mut &'static [&'static str]);
+    impl<'de> serde::Deserializer<'de> for Probe<'_> {
+        type Error = Stop;
+        fn deserialize_any<V: Visitor<'de>>(self, _: V) -> Result<V::Value, Stop> {
+            Err(Stop)
+        }
+        fn deserialize_struct<V: Visitor<'de>>(
+            self,
+            _: &'static str,
+            fields: &'static [&'static str],
+            _: V,
+        ) -> Result<V::Value, Stop> {
+            *self.0 = fields;
+            Err(Stop)
+        }
+        serde::forward_to_deserialize_any! {
+            bool i8 i16 i32 i64 i128 u8 u16 u32 u64 u128 f32 f64 char str string
+            bytes byte_buf option unit unit_struct newtype_struct seq tuple
+            tuple_struct map enum identifier ignored_any
+        }
+    }
+    let mut keys: &'static [&'static str] = &[];
+    let _ = T::deserialize(Probe(&mut keys));
+    keys
+}
+
 /// Loaded model plus the descriptive parts of the file.
 pub struct LoadedModel {
     pub model: Model,
@@ -255,7 +322,7 @@ pub fn parse(text: &str, file: &str) -> Result<LoadedModel, ModelFileError> {
             .map_or(String::new(), |k| format!("`{k}`: "));
         err(
             e.span(),
-            format!("{key}{msg}; see the format in the README (section Model files)"),
+            format!("{key}{msg}; see the format in docs/model-format.md"),
         )
     })?;
     let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
@@ -263,7 +330,7 @@ pub fn parse(text: &str, file: &str) -> Result<LoadedModel, ModelFileError> {
         solver.get_ref().validate().map_err(|m| {
             err(
                 Some(solver.span()),
-                format!("{m}; see `[solver]` in the README (section Model files)"),
+                format!("{m}; see `[solver]` in docs/model-format.md"),
             )
         })?;
     }

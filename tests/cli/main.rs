@@ -3,6 +3,7 @@
 
 mod cli;
 mod cli_plots;
+mod docs;
 mod malformed_corpus;
 mod model_errors;
 mod run_outcomes;

@@ -723,7 +723,7 @@ fn a_sleeve_held_short_by_a_latch_stops_the_run_naming_it() {
     // [checks] held_short_confirm_s is read: with it out of reach the watch
     // never fires, and the truss runs on until E latches (~25 s) and it
     // turns rigid (with no reference geometry to tell a jam from a
-    // deployment, that counts as deployed: README, exit statuses)
+    // deployment, that counts as deployed: docs/cli.md, stop reasons)
     let text_off = truss(1.0, "").replace(
         "[settings]",
         "[checks]\nheld_short_confirm_s = 1e300\nheld_short_rel_gap = 1e-3\n[settings]",

@@ -397,8 +397,8 @@ fn the_bundled_ring_deploys_to_full_lock_bay_by_bay_and_friction_orders_it() {
 
 /// The 36-sided ring as `generate ring --sides 36 --inner-chord-m 0.7353
 /// --stroke-stops 1e4 --gear-stiffness 1000 --latch-capture-m 1e-4 [--mu
-/// 0.02]` writes it (README, docs/double_ring_stowing.md, Sessions 11 to
-/// 14) does the same. About 9-10 minutes of release build each (mu 0.005,
+/// 0.02]` writes it (docs/double_ring_stowing.md, "The 36-sided ring to full lock"
+/// and after) does the same. About 9-10 minutes of release build each (mu 0.005,
 /// mu 0.02, the machine shared with another run):
 /// `cargo test --release --test solver bay_by_bay_ring:: -- --ignored`.
 #[test]

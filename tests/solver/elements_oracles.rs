@@ -589,7 +589,7 @@ fn vee_geometry(beta: f64) -> Vec<f64> {
 #[test]
 fn every_registry_type_has_a_fixture() {
     let fixtures = all_fixtures();
-    for (kind, _, _) in REGISTRY {
+    for (kind, _, _, _) in REGISTRY {
         assert!(
             fixtures.iter().any(|f| f.spec.kind == *kind),
             "element type `{kind}` is in the registry but has no finite-difference fixture"

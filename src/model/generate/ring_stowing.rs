@@ -605,7 +605,7 @@ fn bay_by_bay_notes(p: &RingParams, extent: f64, (te, to): (f64, f64), post: boo
     notes.push(NUMBERING_NOTE.into());
     notes.extend(p.latch.as_ref().map(super::latch_note));
     notes.extend(p.stroke_stop.as_ref().map(|s| format!(
-        "Stroke stops (`--stroke-stops`; assumed, not a measured value): every sleeve's telescoping tube ends its stroke {} m beyond the length it takes along the symmetric fold farthest from its lock (an `end_stop` element, {} N/m, {} N s/m), so no bay folds tighter, and no frame shears further the wrong way, than the symmetric fold takes it (docs/double_ring_stowing.md, Session 8).",
+        "Stroke stops (`--stroke-stops`; assumed, not a measured value): every sleeve's telescoping tube ends its stroke {} m beyond the length it takes along the symmetric fold farthest from its lock (an `end_stop` element, {} N/m, {} N s/m), so no bay folds tighter, and no frame shears further the wrong way, than the symmetric fold takes it (docs/double_ring_stowing.md, \"Why the 36-sided ring jams\").",
         p.stroke_margin_m, s.stiffness_n_per_m, s.damping_n_s_per_m
     )));
     notes

@@ -54,10 +54,12 @@ impl AngulatedScissor {
         ]
     }
 }
+/// The parameters a model file may give this element (`elements::REGISTRY`).
+pub const PARAMS: &[&str] = &[super::AXIAL_STIFFNESS_KEY];
 
 pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, String> {
     spec.expect_joints(5, "i, hub o, j of rod 1, then k, l of rod 2")?;
-    spec.only_params(&[super::AXIAL_STIFFNESS_KEY])?;
+    spec.only_params(PARAMS)?;
     let j5 = [
         spec.joints[0],
         spec.joints[1],

@@ -30,10 +30,12 @@ impl Bar {
         }
     }
 }
+/// The parameters a model file may give this element (`elements::REGISTRY`).
+pub const PARAMS: &[&str] = &["length_m", super::AXIAL_STIFFNESS_KEY];
 
 pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, String> {
     spec.expect_joints(2, "its two end joints")?;
-    spec.only_params(&["length_m", super::AXIAL_STIFFNESS_KEY])?;
+    spec.only_params(PARAMS)?;
     let (a, b) = (spec.joints[0], spec.joints[1]);
     let l0 = (at(x0, b) - at(x0, a)).norm();
     let length_m = spec.num("length_m")?.unwrap_or(l0);

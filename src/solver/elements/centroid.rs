@@ -17,12 +17,14 @@ pub struct Centroid {
     /// Weight of each joint in the row: 1/N, or +1/K and -1/(N-K) for two groups.
     weights: Vec<f64>,
 }
+/// The parameters a model file may give this element (`elements::REGISTRY`).
+pub const PARAMS: &[&str] = &["fix", "first_group"];
 
 pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, String> {
     if spec.joints.is_empty() {
         return Err("a centroid support needs at least one joint".into());
     }
-    spec.only_params(&["fix", "first_group"])?;
+    spec.only_params(PARAMS)?;
     let fix = spec.text("fix")?.unwrap_or("xyz");
     if fix.is_empty() || fix.chars().any(|c| !"xyz".contains(c)) {
         return Err(format!(

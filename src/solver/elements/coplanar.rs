@@ -24,10 +24,12 @@ impl Coplanar {
         }
     }
 }
+/// The parameters a model file may give this element (`elements::REGISTRY`).
+pub const PARAMS: &[&str] = &[];
 
 pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, String> {
     spec.expect_joints(4, "p, a, b, c")?;
-    spec.only_params(&[])?;
+    spec.only_params(PARAMS)?;
     let [p, a, b, c] = [
         spec.joints[0],
         spec.joints[1],

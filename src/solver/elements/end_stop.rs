@@ -34,14 +34,17 @@ pub struct EndStop {
     pub stop: (f64, f64),
 }
 
+/// The parameters a model file may give this element (`elements::REGISTRY`).
+pub const PARAMS: &[&str] = &[
+    "max_length_m",
+    "min_length_m",
+    "stiffness_n_per_m",
+    "damping_n_s_per_m",
+];
+
 pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, String> {
     spec.expect_joints(2, "the telescopic member's two end joints")?;
-    spec.only_params(&[
-        "max_length_m",
-        "min_length_m",
-        "stiffness_n_per_m",
-        "damping_n_s_per_m",
-    ])?;
+    spec.only_params(PARAMS)?;
     let (a, b) = (spec.joints[0], spec.joints[1]);
     let l0 = (at(x0, b) - at(x0, a)).norm();
     let max = spec.num("max_length_m")?.unwrap_or(f64::INFINITY);

@@ -36,6 +36,8 @@ pub struct HingeAxis {
     h: f64,
     rho0: f64,
 }
+/// The parameters a model file may give this element (`elements::REGISTRY`).
+pub const PARAMS: &[&str] = &[];
 
 /// A hinge's joints [p, q, r, a] from its spec, the vectors u, v, w of
 /// `hinge_vectors` at the start, the post length h = |u|, rho0 = |v| and the unit
@@ -49,7 +51,7 @@ pub(super) fn hinge_start(
         4,
         &format!("hinge p, post end q, {member} end r, hinged member end a"),
     )?;
-    spec.only_params(&[])?;
+    spec.only_params(PARAMS)?;
     let joints = [
         spec.joints[0],
         spec.joints[1],

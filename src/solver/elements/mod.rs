@@ -267,76 +267,92 @@ use identity;
 
 type Builder = fn(&ElementSpec, &[f64]) -> Result<Box<dyn Constraint>, String>;
 
-/// The registry: model-file type name, what it is, and its constructor. The
-/// constructor receives the spec and the initial positions X0 (for element
-/// dimensions taken from the initial geometry, e.g. bar lengths).
-pub const REGISTRY: &[(&str, &str, Builder)] = &[
-    ("bar", "constant-length member between 2 joints", bar::build),
+/// The registry: model-file type name, what it is, the parameters its
+/// constructor accepts (each module's `PARAMS`, which its `build` checks;
+/// docs/model-format.md lists them, tests/cli/docs.rs holds the two equal),
+/// and its constructor. The constructor receives the spec and the initial
+/// positions X0 (for element dimensions taken from the initial geometry,
+/// e.g. bar lengths).
+pub const REGISTRY: &[(&str, &str, &[&str], Builder)] = &[
+    ("bar", "constant-length member between 2 joints", bar::PARAMS,
+        bar::build),
     (
         "sleeve",
         "telescopic member between 2 joints, free until it latches at `lock_length_m`",
+        sleeve::PARAMS,
         sleeve::build,
     ),
     (
         "end_stop",
         "stroke end of a telescopic member between 2 joints: free within [`min_length_m`, `max_length_m`], a stiff spring-damper past it",
+        end_stop::PARAMS,
         end_stop::build,
     ),
     (
         "scissor",
         "linear scissor-link element: rods i-j and k-l pinned at a common pivot",
+        scissor::PARAMS,
         scissor::build,
     ),
     (
         "angulated_scissor",
         "planar multiangular scissor element on joints i, o, j, k, l",
+        angulated_scissor::PARAMS,
         angulated_scissor::build,
     ),
     (
         "plate",
         "rigid plate on 4 corner joints (5 bars + coplanarity, full rank when flat)",
+        plate::PARAMS,
         plate::build,
     ),
     (
         "coplanar",
         "keeps 4 joints in one plane (1 row)",
+        coplanar::PARAMS,
         coplanar::build,
     ),
     (
         "hinge_axis",
         "revolute hinge fixed in a post's body: member p-a turns only about it (joints p, q, r, a)",
+        hinge_axis::PARAMS,
         hinge_axis::build,
     ),
     (
         "frame_hinge",
         "revolute hinge fixed in a post's body whose frame member p-r shears: member p-a turns only about it (joints p, q, r, a)",
+        hinge_axis::PARAMS,
         frame_hinge::build,
     ),
     (
         "centroid",
         "fixes coordinates (`fix`) of the mean position of any number of joints",
+        centroid::PARAMS,
         centroid::build,
     ),
     (
         "perpendicular",
         "right-angle fitting: members p-q and p-r stay square (joints p, q, r; 1 row)",
+        perpendicular::PARAMS,
         perpendicular::build,
     ),
     (
         "sync_hinge",
         "synchronizing gears at hinge p: members p-a and p-b fold as mirror images (joints p, q, r, a, b)",
+        sync_hinge::PARAMS,
         sync_hinge::build,
     ),
     (
         "support",
         "fixes the named coordinates (`fix` = some of \"xyz\") of 1 joint",
+        support::PARAMS,
         support::build,
     ),
 ];
 
 pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, String> {
-    match REGISTRY.iter().find(|(k, _, _)| *k == spec.kind) {
-        Some((_, _, b)) => b(spec, x0),
+    match REGISTRY.iter().find(|(k, _, _, _)| *k == spec.kind) {
+        Some((_, _, _, b)) => b(spec, x0),
         None => Err(format!(
             "unknown element type `{}` (known: {})",
             spec.kind,

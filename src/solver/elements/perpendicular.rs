@@ -15,13 +15,15 @@ pub struct Perpendicular {
     joints: [usize; 3],
     scale: f64,
 }
+/// The parameters a model file may give this element (`elements::REGISTRY`).
+pub const PARAMS: &[&str] = &[];
 
 pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, String> {
     spec.expect_joints(
         3,
         "the corner p, then q and r at the ends of the two members",
     )?;
-    spec.only_params(&[])?;
+    spec.only_params(PARAMS)?;
     let j = [spec.joints[0], spec.joints[1], spec.joints[2]];
     let (l1, l2) = (
         (at(x0, j[1]) - at(x0, j[0])).norm(),

@@ -47,10 +47,12 @@ impl Plate {
         }
     }
 }
+/// The parameters a model file may give this element (`elements::REGISTRY`).
+pub const PARAMS: &[&str] = &["formulation", super::AXIAL_STIFFNESS_KEY];
 
 pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, String> {
     spec.expect_joints(4, "its corners i, j, k, l in cyclic order")?;
-    spec.only_params(&["formulation", super::AXIAL_STIFFNESS_KEY])?;
+    spec.only_params(PARAMS)?;
     let six_bars = match spec.text("formulation")?.unwrap_or("flat") {
         "flat" => false,
         "six_bars" => true,

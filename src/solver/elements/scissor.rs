@@ -55,10 +55,12 @@ impl Scissor {
         }
     }
 }
+/// The parameters a model file may give this element (`elements::REGISTRY`).
+pub const PARAMS: &[&str] = &["ratio", super::AXIAL_STIFFNESS_KEY];
 
 pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, String> {
     spec.expect_joints(4, "rod 1 from i to j, rod 2 from k to l")?;
-    spec.only_params(&["ratio", super::AXIAL_STIFFNESS_KEY])?;
+    spec.only_params(PARAMS)?;
     let ratio = spec.num("ratio")?.unwrap_or(1.0);
     if ratio <= 0.0 {
         return Err(format!("`ratio` = {ratio} (|Oj|/|Oi|) must be positive"));

@@ -39,15 +39,18 @@ impl Sleeve {
     }
 }
 
+/// The parameters a model file may give this element (`elements::REGISTRY`).
+pub const PARAMS: &[&str] = &[
+    "lock_length_m",
+    super::AXIAL_STIFFNESS_KEY,
+    "latch_stiffness_n_per_m",
+    "latch_damping_n_s_per_m",
+    "capture_range_m",
+];
+
 pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, String> {
     spec.expect_joints(2, "its two end joints")?;
-    spec.only_params(&[
-        "lock_length_m",
-        super::AXIAL_STIFFNESS_KEY,
-        "latch_stiffness_n_per_m",
-        "latch_damping_n_s_per_m",
-        "capture_range_m",
-    ])?;
+    spec.only_params(PARAMS)?;
     let (a, b) = (spec.joints[0], spec.joints[1]);
     let l0 = (at(x0, b) - at(x0, a)).norm();
     if l0 <= 1e-9 {

@@ -10,10 +10,12 @@ pub struct Support {
     /// (axis 0..3, fixed value in m)
     fixed: Vec<(usize, f64)>,
 }
+/// The parameters a model file may give this element (`elements::REGISTRY`).
+pub const PARAMS: &[&str] = &["fix"];
 
 pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, String> {
     spec.expect_joints(1, "the supported joint")?;
-    spec.only_params(&["fix"])?;
+    spec.only_params(PARAMS)?;
     let fix = spec.text("fix")?.unwrap_or("xyz");
     let j = spec.joints[0];
     let mut fixed = Vec::new();

@@ -23,10 +23,12 @@ pub struct SyncHinge {
     /// Compliant gears: stiffness (N/m) and damping (N s/m) on the rows.
     spring: Option<(f64, f64)>,
 }
+/// The parameters a model file may give this element (`elements::REGISTRY`).
+pub const PARAMS: &[&str] = &["mirror", "stiffness_n_per_m", "damping_n_s_per_m"];
 
 pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, String> {
     spec.expect_joints(5, "hinge p, post end q, radial end r, member ends a and b")?;
-    spec.only_params(&["mirror", "stiffness_n_per_m", "damping_n_s_per_m"])?;
+    spec.only_params(PARAMS)?;
     let spring = spec.spring_damper("stiffness_n_per_m", "damping_n_s_per_m", "compliant gears")?;
     let j = [
         spec.joints[0],
