@@ -384,6 +384,7 @@ fn friction_orders_the_bays(low: Model, high: Model, until_s: f64, max_captured:
 /// The bundled ring (mu 0.005) and the same at mu 0.02 (the capture after a
 /// failed sub-step is a fallback near the flat state: 0 and 1 measured).
 #[test]
+#[ignore = "two ring deployments, ~4 min in the test profile; CI runs it (.ci/run: slow physics runs)"]
 fn the_bundled_ring_deploys_to_full_lock_bay_by_bay_and_friction_orders_it() {
     let bundled = load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("models/double_ring.toml"))
         .unwrap()
@@ -400,9 +401,9 @@ fn the_bundled_ring_deploys_to_full_lock_bay_by_bay_and_friction_orders_it() {
 /// 0.02]` writes it (docs/double_ring_stowing.md, "The 36-sided ring to full lock"
 /// and after) does the same. About 9-10 minutes of release build each (mu 0.005,
 /// mu 0.02, the machine shared with another run):
-/// `cargo test --release --test solver bay_by_bay_ring:: -- --ignored`.
+/// `cargo test --release --test solver bay_by_bay_ring::a_36 -- --ignored`.
 #[test]
-#[ignore = "two runs of ~10 min each in release; cargo test --release --test solver bay_by_bay_ring:: -- --ignored"]
+#[ignore = "two runs of ~10 min each in release; cargo test --release --test solver bay_by_bay_ring::a_36 -- --ignored"]
 fn a_36_sided_ring_deploys_to_full_lock_bay_by_bay_and_friction_orders_it() {
     let p = |mu: f64| {
         let d = RingParams::bay_by_bay();

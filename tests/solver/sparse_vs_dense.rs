@@ -134,6 +134,7 @@ fn compare_runs(name: &str, model: impl Fn() -> Model, max_steps: usize, to_depl
 }
 
 #[test]
+#[ignore = "every bundled model with both backends, ~2 min in the test profile; CI runs it (.ci/run: slow physics runs)"]
 fn bundled_models_deploy_identically() {
     let paths = models();
     assert!(!paths.is_empty());
