@@ -278,20 +278,38 @@ impl Failure {
 }
 
 pub fn main() -> i32 {
-    let cli = match Cli::try_parse() {
+    // `--ros-args ... [--]` sections (as launch_ros passes them) are the node's.
+    #[cfg(feature = "ros")]
+    let (argv, ros_args) = crate::node::rosargs::split_argv(std::env::args_os());
+    #[cfg(not(feature = "ros"))]
+    let (argv, ros_args): (Vec<std::ffi::OsString>, Vec<std::ffi::OsString>) =
+        (std::env::args_os().collect(), Vec::new());
+    let cli = match Cli::try_parse_from(argv) {
         Ok(c) => c,
         Err(e) => {
             let _ = e.print();
             return if e.use_stderr() { 2 } else { 0 };
         }
     };
+    #[cfg(feature = "ros")]
+    let is_node = matches!(cli.cmd, Cmd::Node(_));
+    #[cfg(not(feature = "ros"))]
+    let is_node = false;
+    if !ros_args.is_empty() && !is_node {
+        let _ = writeln!(
+            std::io::stderr(),
+            "error: --ros-args belongs to `truss-deploy node`"
+        );
+        return 2;
+    }
     let result = match cli.cmd {
         Cmd::Simulate(a) => simulate::run(a),
         Cmd::Analyze(a) => analyze(a),
         Cmd::Generate(a) => generate_cmd(a),
         Cmd::Bench(a) => bench(a),
         #[cfg(feature = "ros")]
-        Cmd::Node(a) => node_outputs(&a).and_then(|_| {
+        Cmd::Node(mut a) => node_outputs(&a).and_then(|_| {
+            a.ros_args = ros_args;
             crate::node::run_blocking(a)
                 .map(|_| ())
                 .map_err(|e| match e {

@@ -74,6 +74,28 @@ pub struct Clock {
 }
 impl Message for Clock {}
 
+/// geometry_msgs/msg/Transform.
+#[derive(Debug, Clone, Copy, Default, Serialize, Deserialize, PartialEq)]
+pub struct Transform {
+    pub translation: Vector3,
+    pub rotation: Quaternion,
+}
+
+/// geometry_msgs/msg/TransformStamped.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct TransformStamped {
+    pub header: Header,
+    pub child_frame_id: String,
+    pub transform: Transform,
+}
+
+/// tf2_msgs/msg/TFMessage (/tf and /tf_static).
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct TFMessage {
+    pub transforms: Vec<TransformStamped>,
+}
+impl Message for TFMessage {}
+
 /// truss_deploy/msg/TrussState (msg/TrussState.msg).
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct TrussState {

@@ -7,10 +7,11 @@
 //! rmw_cyclonedds_cpp puts a 16-byte request header (client id, sequence
 //! number) before the request in the payload; rmw_fastrtps_cpp (ROS 2's
 //! default) and rmw_connextdds send the bare request and carry its id in the
-//! RTPS inline QoS (related_sample_identity). Every request type served here
-//! serializes to at most [`MAX_REQUEST_BYTES`] (< 16 even with Fast DDS's
-//! 4-byte padding), so the payload length tells the two apart
-//! ([`request_mapping`]).
+//! RTPS inline QoS (related_sample_identity). The vendor id opening the
+//! client's GUID tells Cyclone DDS and Fast DDS clients apart; for others,
+//! every simulation request type served here serializes to at most
+//! [`MAX_REQUEST_BYTES`] (< 16 even with Fast DDS's 4-byte padding), so the
+//! payload length does ([`request_mapping`]).
 //!
 //! A reply is held until the reply writer has matched a reader in the
 //! client's participant (at most [`REPLY_HOLD`]): a client may see the service
@@ -20,6 +21,7 @@
 //! [`Control`] is the run state (playing, paused, stopped) and what each
 //! request does to it; it is pure, so tests drive it without DDS.
 
+use super::log::node_log;
 use super::msgs::sim_if::*;
 use super::msgs::*;
 use crate::solver::Simulator;
@@ -40,15 +42,26 @@ const MAX_HELD_REPLIES: usize = 256;
 /// Most steps one StepSimulation call may ask for (the loop blocks meanwhile).
 pub const MAX_STEPS_PER_CALL: u64 = 10_000;
 
-/// The mapping of a request from its payload length (CDR bytes after the
+/// The first two bytes of a participant's GUID prefix in Cyclone DDS and in
+/// Fast DDS: their RTPS vendor ids (each writes its own there).
+pub const VENDOR_ECLIPSE_CYCLONE: [u8; 2] = [0x01, 0x10];
+pub const VENDOR_EPROSIMA_FASTDDS: [u8; 2] = [0x01, 0x0f];
+
+/// The mapping of a request. A client in a Cyclone DDS participant is
+/// rmw_cyclonedds' (Cyclone mapping), one in a Fast DDS participant
+/// rmw_fastrtps' (Enhanced), told by the vendor id opening the request
+/// writer's GUID. Others by the payload length (CDR bytes after the
 /// encapsulation header): a Cyclone-mapped request is at least the 16-byte
-/// header plus one byte; an Enhanced one is the bare request, at most
-/// [`MAX_REQUEST_BYTES`] plus 3 bytes of alignment padding.
-pub fn request_mapping(payload_len: usize) -> ServiceMapping {
-    if payload_len >= CYCLONE_HEADER_BYTES {
-        ServiceMapping::Cyclone
-    } else {
-        ServiceMapping::Enhanced
+/// header plus one byte; an Enhanced one of the simulation services is the
+/// bare request, at most [`MAX_REQUEST_BYTES`] plus 3 bytes of alignment
+/// padding. (The parameter services' requests are longer: their clients need
+/// the vendor rule.)
+pub fn request_mapping(payload_len: usize, client_guid: &[u8]) -> ServiceMapping {
+    match client_guid.get(..2) {
+        Some(v) if v == VENDOR_ECLIPSE_CYCLONE => ServiceMapping::Cyclone,
+        Some(v) if v == VENDOR_EPROSIMA_FASTDDS => ServiceMapping::Enhanced,
+        _ if payload_len >= CYCLONE_HEADER_BYTES => ServiceMapping::Cyclone,
+        _ => ServiceMapping::Enhanced,
     }
 }
 
@@ -105,8 +118,10 @@ impl<Req: Message + Clone + 'static, Resp: Message + 'static> Service<Req, Resp>
         let forced = self.forced;
         let mut n = 0;
         for _ in 0..MAX_REQS_PER_WAKE {
-            let got = self.server.receive_request_any_mapping(|payload, _| {
-                forced.unwrap_or_else(|| request_mapping(payload.len()))
+            let got = self.server.receive_request_any_mapping(|payload, info| {
+                forced.unwrap_or_else(|| {
+                    request_mapping(payload.len(), info.publisher_gid().as_bytes())
+                })
             });
             match got {
                 Ok(Some((id, req, mapping, info))) => {
@@ -128,8 +143,8 @@ impl<Req: Message + Clone + 'static, Resp: Message + 'static> Service<Req, Resp>
                 Err(e) => {
                     // the reader has moved past it: read on
                     if !self.bad_request_logged {
-                        tell!(
-                            "truss_deploy: service {}: undecodable request skipped ({e:?}); further ones are not logged",
+                        node_log!(Warn,
+                            "service {}: undecodable request skipped ({e:?}); further ones are not logged",
                             self.name
                         );
                         self.bad_request_logged = true;
@@ -152,8 +167,8 @@ impl<Req: Message + Clone + 'static, Resp: Message + 'static> Service<Req, Resp>
             let matched = node.writer_matched_participant(writer, client);
             if matched || now >= h.deadline {
                 if !matched {
-                    tell!(
-                        "truss_deploy: service {}: the client's reply reader did not match within {} s; replying anyway",
+                    node_log!(Warn,
+                        "service {}: the client's reply reader did not match within {} s; replying anyway",
                         self.name,
                         REPLY_HOLD.as_secs()
                     );
@@ -171,7 +186,7 @@ impl<Req: Message + Clone + 'static, Resp: Message + 'static> Service<Req, Resp>
             .server
             .send_response_with_mapping(h.id, h.resp, h.mapping)
         {
-            tell!("truss_deploy: service {} response: {e:?}", self.name);
+            node_log!(Warn, "service {} response: {e:?}", self.name);
         }
     }
 }
@@ -435,9 +450,13 @@ pub struct Services {
 }
 
 impl Services {
-    /// Creates them under `<ns>/truss`.
-    pub fn new(node: &mut Node, ns: &str, forced: Option<ServiceMapping>) -> Result<Self, String> {
-        let name = |b: &str| super::topic_name(ns, "truss", b);
+    /// Creates them under `<ns>/truss` (remappable).
+    pub fn new(
+        node: &mut Node,
+        names: &super::Naming,
+        forced: Option<ServiceMapping>,
+    ) -> Result<Self, String> {
+        let name = |b: &str| names.name(&format!("truss/{b}"));
         let si = |t: &str| ServiceTypeName::new("simulation_interfaces", t);
         let mut trigger = Vec::new();
         for b in TRIGGERS {
@@ -542,12 +561,19 @@ mod tests {
         for s in sizes {
             assert!(s <= MAX_REQUEST_BYTES, "{sizes:?}");
             let padded = s.div_ceil(4) * 4;
-            assert_eq!(request_mapping(padded), ServiceMapping::Enhanced);
+            assert_eq!(request_mapping(padded, &[0; 16]), ServiceMapping::Enhanced);
             assert_eq!(
-                request_mapping(CYCLONE_HEADER_BYTES + s),
+                request_mapping(CYCLONE_HEADER_BYTES + s, &[0; 16]),
                 ServiceMapping::Cyclone
             );
         }
+        // a parameter request is longer: the client's vendor decides
+        let mut cyclone = [0u8; 16];
+        cyclone[..2].copy_from_slice(&VENDOR_ECLIPSE_CYCLONE);
+        let mut fast = [0u8; 16];
+        fast[..2].copy_from_slice(&VENDOR_EPROSIMA_FASTDDS);
+        assert_eq!(request_mapping(40, &fast), ServiceMapping::Enhanced);
+        assert_eq!(request_mapping(4, &cyclone), ServiceMapping::Cyclone);
     }
 
     /// Pause, step, resume, stop and reset do what simulation_interfaces says,
