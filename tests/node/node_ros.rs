@@ -1,10 +1,15 @@
 //! The node as ROS 2 tools see it, through an independent Cyclone DDS peer
 //! (tests/python/graph_peer.py reading the DCPSPublication/DCPSSubscription
-//! builtin topics, /rosout, /tf): one type per announced topic; `--ros-args`
-//! renaming the node and a topic and setting a parameter; /rosout carrying the
-//! start line. Bad `--ros-args` fail with exit status 2 before any DDS.
-//! Interpreter: env TRUSS_PYTHON (default `python3`); the DDS tests SKIP
-//! loudly when `import cyclonedds` fails (.ci/run installs it).
+//! builtin topics, /rosout, /tf, and calling the parameter services as
+//! rmw_cyclonedds does) and a Fast DDS one (tests/fastdds/param_peer.cpp, the
+//! parameter services as rmw_fastrtps calls them): one type per announced
+//! topic; `--ros-args` renaming the node and a topic and setting a parameter;
+//! /rosout carrying the start line; the mast tip's /tf frame; `ros2 param`
+//! list/get/describe/set, a set rtf taking effect at once. Bad `--ros-args`
+//! fail with exit status 2 before any DDS.
+//! Interpreter: env TRUSS_PYTHON (default `python3`); the Cyclone tests SKIP
+//! loudly when `import cyclonedds` fails, the Fast DDS one without Fast DDS
+//! unless TRUSS_REQUIRE_FASTDDS=1 (.ci/run installs both).
 #![cfg(feature = "ros")]
 
 use serde_json::Value;
@@ -443,4 +448,51 @@ fn parameters_listed_got_described_and_set_live_from_a_cyclone_client() {
         (1.6..=2.4).contains(&(after / before)),
         "{after} / {before}"
     );
+}
+
+#[test]
+fn parameters_listed_got_and_set_from_a_fastdds_client() {
+    let Some(peer) = super::node_fastdds::peer_or_skip("param_peer") else {
+        return;
+    };
+    let dom = domain(5);
+    let _node = spawn_node(dom, &["--ros-args", "-r", "__node:=mast"]);
+    let t0 = Instant::now();
+    let out = Command::new(&peer)
+        .env("ROS_DOMAIN_ID", dom.to_string())
+        .env("PEER_NODE", "/mast")
+        .env("PEER_SET_RTF", "3.0")
+        .output()
+        .expect("run the Fast DDS parameter peer");
+    assert!(t0.elapsed() < Duration::from_secs(60));
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    eprintln!("{stdout}\n{}", String::from_utf8_lossy(&out.stderr));
+    let line = stdout
+        .lines()
+        .find_map(|l| l.strip_prefix("SUMMARY "))
+        .expect("peer summary");
+    let v: Value = serde_json::from_str(line).unwrap();
+    let names: Vec<&str> = v["list"]
+        .as_array()
+        .expect("list answered")
+        .iter()
+        .map(|x| x.as_str().unwrap())
+        .collect();
+    assert!(
+        names.contains(&"rtf") && names.contains(&"tf_frames"),
+        "{names:?}"
+    );
+    assert_eq!(
+        (v["get"][0][0].as_u64(), v["get"][0][1].as_f64()),
+        (Some(3), Some(1.0)),
+        "rtf: double 1"
+    );
+    assert!(v["get"][1][1]
+        .as_str()
+        .unwrap()
+        .ends_with("pantograph_mast.toml"));
+    assert_eq!(v["set"][0][0], true, "{v}");
+    assert_eq!(v["set"][1][0], false, "{v}");
+    assert!(v["set"][1][1].as_str().unwrap().contains("read-only"));
+    assert_eq!(v["rtf_after"].as_f64(), Some(3.0));
 }
