@@ -62,9 +62,13 @@ fn python() -> Option<String> {
     Some(py)
 }
 
-/// The node on loopback (ROS_LOCALHOST_ONLY=1, as a ROS 2 user sets it).
+/// The node (the mast) on loopback (ROS_LOCALHOST_ONLY=1, as a ROS 2 user sets it).
 fn spawn_node(dom: u16, extra: &[&str]) -> NodeProc {
-    let mut args = vec!["node", MODEL, "--max-wall-s", "40"];
+    spawn_node_of(MODEL, dom, extra)
+}
+
+fn spawn_node_of(model: &str, dom: u16, extra: &[&str]) -> NodeProc {
+    let mut args = vec!["node", model, "--max-wall-s", "40"];
     args.extend_from_slice(extra);
     NodeProc(
         Command::new(BIN)
@@ -495,4 +499,20 @@ fn parameters_listed_got_and_set_from_a_fastdds_client() {
     assert_eq!(v["set"][1][0], false, "{v}");
     assert!(v["set"][1][1].as_str().unwrap().contains("read-only"));
     assert_eq!(v["rtf_after"].as_f64(), Some(3.0));
+}
+
+/// The sail's two cables, commanded by two partial commands written back to
+/// back (taken in one tick when they arrive together): both in force, neither
+/// lost (before, a tick kept only its last valid command). The merge itself is
+/// tested deterministically in the lib (commands::tests).
+#[test]
+fn two_partial_commands_written_together_both_apply() {
+    let Some(py) = python() else { return };
+    let dom = domain(6);
+    let sail = concat!(env!("CARGO_MANIFEST_DIR"), "/models/sail_array.toml");
+    let _node = spawn_node_of(sail, dom, &["--paused"]);
+    let v = graph_peer(&py, dom, &[("PEER_SAIL_CMDS", "1"), ("PEER_SECS", "20")]);
+    eprintln!("{v}");
+    assert_eq!(v["accepted"], 2, "{v}");
+    assert_eq!(v["tensions"], v["want"], "both partial commands in force");
 }

@@ -8,6 +8,9 @@
     stamp with the wall clock (for the real-time factor);
   - with PEER_TF=1: reads rt/tf and rt/tf_static (tf2_msgs/TFMessage) and
     rt/truss/state, and pairs each /tf frame with the joint position of the same stamp;
+  - with PEER_SAIL_CMDS=1 (the sail array): writes two partial CableForceCommands back to
+    back, one for drive_A and one for drive_B, and reads /truss/lock_status until both are
+    in force (or the budget ends);
   - with PEER_PARAMS=NODE (e.g. /truss_deploy): calls the node's parameter services
     as rmw_cyclonedds_cpp does (`ros2 param list/get/describe/set`), measuring the
     real-time factor on rt/joint_states before and after setting rtf to PEER_SET_RTF.
@@ -31,26 +34,8 @@ from cyclonedds.sub import DataReader
 from cyclonedds.topic import Topic
 from cyclonedds.util import duration
 
-
-@dataclass
-class Time(IdlStruct, typename="builtin_interfaces::msg::dds_::Time_"):
-    sec: int32
-    nanosec: uint32
-
-
-@dataclass
-class Header(IdlStruct, typename="std_msgs::msg::dds_::Header_"):
-    stamp: Time
-    frame_id: str
-
-
-@dataclass
-class JointState(IdlStruct, typename="sensor_msgs::msg::dds_::JointState_"):
-    header: Header
-    name: sequence[str]
-    position: sequence[float64]
-    velocity: sequence[float64]
-    effort: sequence[float64]
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from peer import CableForceCommand, Header, JointState, LockStatus, Time  # noqa: E402
 
 
 @dataclass
@@ -318,6 +303,37 @@ def params_session(dp, node, rel):
     return out
 
 
+def sail_commands(dp, rel, budget_s):
+    """Two partial commands written together; the tensions LockStatus shows after them."""
+    xcdr1 = Policy.DataRepresentation(use_cdrv0_representation=True)
+    latched = Qos(Policy.Reliability.Reliable(duration(milliseconds=100)),
+                  Policy.Durability.TransientLocal, Policy.History.KeepLast(1), xcdr1)
+    w = DataWriter(dp, Topic(dp, "rt/truss/cable_force_cmd", CableForceCommand), qos=rel)
+    lock = DataReader(dp, Topic(dp, "rt/truss/lock_status", LockStatus), qos=latched)
+    t0 = time.monotonic()
+    for _ in range(int(budget_s / 0.01) + 1):
+        if len(w.get_matched_subscriptions()) or time.monotonic() - t0 > budget_s:
+            break
+        time.sleep(0.01)
+    time.sleep(0.5)  # the node's reader has matched this writer too
+    want = {"drive_A": 3.25, "drive_B": 4.5}
+    w.write(CableForceCommand(names=["drive_A"], tensions_n=[want["drive_A"]]))
+    w.write(CableForceCommand(names=["drive_B"], tensions_n=[want["drive_B"]]))
+    last = None
+    for _ in range(int(budget_s / 0.01) + 1):
+        for s in lock.take(N=100):
+            last = s
+        if last is not None and last.accepted_commands >= 2:
+            t = dict(zip(last.cable_names, last.cable_tensions_n))
+            if t == want or time.monotonic() - t0 > budget_s:
+                break
+        if time.monotonic() - t0 > budget_s:
+            break
+        time.sleep(0.01)
+    return {"want": want, "tensions": dict(zip(last.cable_names, last.cable_tensions_n)) if last else None,
+            "accepted": last.accepted_commands if last else None}
+
+
 def qos_of(q):
     """(reliability, durability, history depth) of a discovered endpoint's QoS."""
     rel = dur = depth = None
@@ -347,6 +363,11 @@ def main() -> int:
     want_tf = os.environ.get("PEER_TF") == "1"
     dp = DomainParticipant(domain)
     xcdr1 = Policy.DataRepresentation(use_cdrv0_representation=True)
+    if os.environ.get("PEER_SAIL_CMDS") == "1":
+        rel10 = Qos(Policy.Reliability.Reliable(duration(milliseconds=100)),
+                    Policy.Durability.Volatile, Policy.History.KeepLast(10), xcdr1)
+        print("SUMMARY " + json.dumps(sail_commands(dp, rel10, budget_s)), flush=True)
+        return 0
     if os.environ.get("PEER_PARAMS"):
         rel = Qos(Policy.Reliability.Reliable(duration(milliseconds=100)),
                   Policy.Durability.Volatile, Policy.History.KeepLast(100), xcdr1)
