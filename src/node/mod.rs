@@ -732,7 +732,7 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
         let target = ctl.anchor_sim + live.rtf * now.duration_since(ctl.anchor_wall).as_secs_f64();
         let mut n = 0;
         while !sim.state().deployed
-            && !ctl.step_failed
+            && ctl.step_failure.is_none()
             && !ctl.paused()
             && sim.state().t_s + 0.5 * dt <= target
             && n < MAX_CATCHUP_STEPS
@@ -756,11 +756,9 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
                     }
                 }
                 Err(e) => {
-                    node_log!(Error,
-                        "step failed at t = {:.4} s: {e}; holding the last state (reset to continue)",
-                        sim.state().t_s
-                    );
-                    ctl.step_failed = true;
+                    let why = format!("step failed at t = {:.4} s: {e}", sim.state().t_s);
+                    node_log!(Error, "{why}; holding the last state (reset to continue)");
+                    ctl.step_failure = Some(why);
                     lock_dirty = true;
                 }
             }
@@ -827,7 +825,7 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
         }
         // 5. Sleep until the next thing to do.
         let mut wake = next_pub.min(next_lock).min(next_marker);
-        if !ctl.paused() && !sim.state().deployed && !ctl.step_failed {
+        if !ctl.paused() && !sim.state().deployed && ctl.step_failure.is_none() {
             let due = ctl.anchor_wall
                 + Duration::from_secs_f64(
                     ((sim.state().t_s + dt - ctl.anchor_sim) / live.rtf).max(0.0),

@@ -206,8 +206,8 @@ pub struct Control {
     /// Sim time target = anchor_sim + rtf * (now - anchor_wall).
     pub anchor_wall: Instant,
     pub anchor_sim: f64,
-    /// A step failed: hold the state until a reset.
-    pub step_failed: bool,
+    /// A step failed (why): hold the state until a reset.
+    pub step_failure: Option<String>,
     /// Steps taken by services (for the run summary).
     pub steps: u64,
     dt: f64,
@@ -232,7 +232,7 @@ impl Control {
             },
             anchor_wall: Instant::now(),
             anchor_sim: sim.state().t_s,
-            step_failed: false,
+            step_failure: None,
             steps: 0,
             dt,
         }
@@ -254,7 +254,7 @@ impl Control {
 
     fn do_reset(&mut self, sim: &mut Simulator) -> Result<(), String> {
         sim.reset().map_err(|e| format!("reset failed: {e}"))?;
-        self.step_failed = false;
+        self.step_failure = None;
         self.resync(sim);
         Ok(())
     }
@@ -267,18 +267,16 @@ impl Control {
             if sim.state().deployed {
                 return (done, Some("fully deployed: the state is held".into()));
             }
-            if self.step_failed {
+            if self.step_failure.is_some() {
                 return (
                     done,
                     Some("a step failed earlier: reset to continue".into()),
                 );
             }
             if let Err(e) = sim.step(self.dt) {
-                self.step_failed = true;
-                return (
-                    done,
-                    Some(format!("step failed at t = {:.4} s: {e}", sim.state().t_s)),
-                );
+                let why = format!("step failed at t = {:.4} s: {e}", sim.state().t_s);
+                self.step_failure = Some(why.clone());
+                return (done, Some(why));
             }
             done += 1;
             self.steps += 1;
@@ -341,18 +339,41 @@ impl Control {
         }
     }
 
-    pub fn state_msg(&self) -> GetSimulationStateResponse {
+    /// Why the simulation holds its state (time does not advance) although
+    /// it may be playing: a failed step (a failure result) or full deployment.
+    pub fn held(&self, sim: &Simulator) -> Option<(u8, String)> {
+        if let Some(why) = &self.step_failure {
+            Some((
+                RESULT_OPERATION_FAILED,
+                format!("{why}; holding the last state: reset to continue"),
+            ))
+        } else if sim.state().deployed {
+            Some((
+                RESULT_OK,
+                "fully deployed: holding the final state; reset to run again".into(),
+            ))
+        } else {
+            None
+        }
+    }
+
+    /// GetSimulationState. While the state is held (see [`Self::held`]) a
+    /// playing simulation is reported PAUSED, with the reason in the result.
+    pub fn state_msg(&self, sim: &Simulator) -> GetSimulationStateResponse {
+        let held = self.held(sim);
+        let (result, error_message) = held.clone().unwrap_or((RESULT_OK, String::new()));
         GetSimulationStateResponse {
             state: SimulationState {
                 state: match self.run {
+                    RunState::Playing if held.is_some() => STATE_PAUSED,
                     RunState::Playing => STATE_PLAYING,
                     RunState::Paused => STATE_PAUSED,
                     RunState::Stopped => STATE_STOPPED,
                 },
             },
             result: SimResult {
-                result: RESULT_OK,
-                error_message: String::new(),
+                result,
+                error_message,
             },
         }
     }
@@ -373,6 +394,11 @@ impl Control {
                 )
             }
         };
+        if want == RunState::Playing {
+            if let Some((_, why)) = self.held(sim) {
+                return result(RESULT_OPERATION_FAILED, format!("cannot play: {why}"));
+            }
+        }
         if want == now {
             return result(ALREADY_IN_TARGET_STATE, "already in the target state");
         }
@@ -515,7 +541,7 @@ impl Services {
             n += srv.serve(node, now, |_| ctl.trigger(TRIGGERS[k], sim));
         }
         n += self.features.serve(node, now, |_| ctl.features());
-        n += self.get_state.serve(node, now, |_| ctl.state_msg());
+        n += self.get_state.serve(node, now, |_| ctl.state_msg(sim));
         n += self
             .set_state
             .serve(node, now, |r| ctl.set_state(r.state.state, sim));
@@ -583,7 +609,7 @@ mod tests {
         let mut sim = mast();
         let dt = sim.model().dt_s;
         let mut c = Control::new(false, &sim, dt);
-        assert_eq!(c.state_msg().state.state, STATE_PLAYING);
+        assert_eq!(c.state_msg(&sim).state.state, STATE_PLAYING);
         let r = c.step(1, &mut sim);
         assert_eq!(
             r.result.result, RESULT_OPERATION_FAILED,
@@ -607,7 +633,7 @@ mod tests {
             c.step(MAX_STEPS_PER_CALL + 1, &mut sim).result.result,
             RESULT_OPERATION_FAILED
         );
-        assert_eq!(c.state_msg().state.state, STATE_PAUSED);
+        assert_eq!(c.state_msg(&sim).state.state, STATE_PAUSED);
         assert_eq!(
             c.set_state(STATE_PLAYING, &mut sim).result.result,
             RESULT_OK
@@ -617,7 +643,7 @@ mod tests {
             c.set_state(STATE_STOPPED, &mut sim).result.result,
             RESULT_OK
         );
-        assert_eq!(c.state_msg().state.state, STATE_STOPPED);
+        assert_eq!(c.state_msg(&sim).state.state, STATE_STOPPED);
         assert_eq!(sim.state().t_s, 0.0, "stopped = paused and reset");
         assert!(c.paused());
         assert_eq!(
@@ -626,7 +652,7 @@ mod tests {
         );
         // step from stopped: allowed, ends paused
         assert_eq!(c.step(2, &mut sim).result.result, RESULT_OK);
-        assert_eq!(c.state_msg().state.state, STATE_PAUSED);
+        assert_eq!(c.state_msg(&sim).state.state, STATE_PAUSED);
         assert_eq!(
             c.reset(SCOPE_TIME, &mut sim).result.result,
             RESULT_FEATURE_UNSUPPORTED
@@ -635,7 +661,7 @@ mod tests {
         assert_eq!(c.reset(SCOPE_DEFAULT, &mut sim).result.result, RESULT_OK);
         assert_eq!(sim.state().t_s, 0.0);
         assert_eq!(
-            c.state_msg().state.state,
+            c.state_msg(&sim).state.state,
             STATE_PAUSED,
             "reset keeps the run state"
         );
@@ -647,5 +673,42 @@ mod tests {
         ] {
             assert!(f.contains(&x), "{f:?}");
         }
+    }
+
+    /// Held after a failed step or at full deployment, a playing simulation is
+    /// reported PAUSED with the reason, and PLAYING is refused until a reset.
+    #[test]
+    fn a_held_simulation_is_not_reported_playing() {
+        let mut sim = mast();
+        let dt = sim.model().dt_s;
+        let mut c = Control::new(false, &sim, dt);
+        c.step_failure = Some("step failed at t = 0.0000 s: test".into());
+        let m = c.state_msg(&sim);
+        assert_eq!(m.state.state, STATE_PAUSED);
+        assert_eq!(m.result.result, RESULT_OPERATION_FAILED);
+        assert!(m.result.error_message.contains("reset to continue"));
+        let r = c.set_state(STATE_PLAYING, &mut sim);
+        assert_eq!(
+            r.result.result, RESULT_OPERATION_FAILED,
+            "{}",
+            r.result.error_message
+        );
+        assert_eq!(c.reset(SCOPE_DEFAULT, &mut sim).result.result, RESULT_OK);
+        assert_eq!(
+            c.state_msg(&sim).state.state,
+            STATE_PLAYING,
+            "the reset clears it"
+        );
+        // deployment: the mast at its model tension deploys within 600 steps
+        for _ in 0..600 {
+            if sim.state().deployed {
+                break;
+            }
+            sim.step(dt).unwrap();
+        }
+        assert!(sim.state().deployed);
+        let m = c.state_msg(&sim);
+        assert_eq!((m.state.state, m.result.result), (STATE_PAUSED, RESULT_OK));
+        assert!(m.result.error_message.contains("fully deployed"));
     }
 }
