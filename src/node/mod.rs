@@ -13,6 +13,7 @@ pub mod publish;
 pub mod record;
 pub mod rosargs;
 pub mod services;
+pub mod sim_action;
 
 #[cfg(all(feature = "humble", feature = "jazzy"))]
 compile_error!(
@@ -351,6 +352,7 @@ struct Endpoints {
     cmd: Subscription<CableForceCommand>,
     srv: Services,
     params_srv: param_services::ParamServices,
+    action: sim_action::SimulateSteps,
 }
 
 fn create_endpoints(
@@ -439,6 +441,7 @@ fn create_endpoints(
     let srv = Services::new(node, names, forced_mapping(a.service_mapping))?;
     let params_srv =
         param_services::ParamServices::new(node, names, forced_mapping(a.service_mapping))?;
+    let action = sim_action::SimulateSteps::new(node, names, forced_mapping(a.service_mapping))?;
     Ok(Endpoints {
         js,
         state,
@@ -450,6 +453,7 @@ fn create_endpoints(
         cmd,
         srv,
         params_srv,
+        action,
     })
 }
 
@@ -727,9 +731,24 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
                 .collect();
             node_log!(Info, "parameters set: {}", set.join(", "));
         }
+        if ep.action.serve(&node, &mut ctl, &sim, Instant::now()) > 0 {
+            lock_dirty = true;
+        }
         // 3. Stepping in real time.
         let now = Instant::now();
         let target = ctl.anchor_sim + live.rtf * now.duration_since(ctl.anchor_wall).as_secs_f64();
+        if ep.action.executing() {
+            // a SimulateSteps goal steps the paused simulation at the same pace
+            let due = ((target - sim.state().t_s) / dt + 0.5).floor().max(0.0) as u64;
+            let taken = ep
+                .action
+                .advance(&mut ctl, &mut sim, due.min(MAX_CATCHUP_STEPS as u64));
+            summary.steps += taken;
+            if taken > 0 {
+                lock_dirty = true;
+            }
+        }
+        ep.action.finish(&node, now);
         let mut n = 0;
         while !sim.state().deployed
             && ctl.step_failure.is_none()
@@ -825,7 +844,10 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
         }
         // 5. Sleep until the next thing to do.
         let mut wake = next_pub.min(next_lock).min(next_marker);
-        if !ctl.paused() && !sim.state().deployed && ctl.step_failure.is_none() {
+        if (!ctl.paused() || ep.action.executing())
+            && !sim.state().deployed
+            && ctl.step_failure.is_none()
+        {
             let due = ctl.anchor_wall
                 + Duration::from_secs_f64(
                     ((sim.state().t_s + dt - ctl.anchor_sim) / live.rtf).max(0.0),

@@ -73,12 +73,21 @@ struct Held<Resp> {
     deadline: Instant,
 }
 
+/// A request answered later (an action's get_result).
+struct Parked<Req> {
+    id: ros2_client::RmwRequestId,
+    req: Req,
+    mapping: ServiceMapping,
+    client: ros2_client::Gid,
+}
+
 /// One service server answering every client in its own mapping.
 pub struct Service<Req: Message, Resp: Message> {
     pub name: String,
     server: Server<Req, Resp>,
     forced: Option<ServiceMapping>,
     held: Vec<Held<Resp>>,
+    parked: Vec<Parked<Req>>,
     bad_request_logged: bool,
 }
 
@@ -104,6 +113,7 @@ impl<Req: Message + Clone + 'static, Resp: Message + 'static> Service<Req, Resp>
             server,
             forced,
             held: Vec::new(),
+            parked: Vec::new(),
             bad_request_logged: false,
         })
     }
@@ -114,6 +124,18 @@ impl<Req: Message + Clone + 'static, Resp: Message + 'static> Service<Req, Resp>
         node: &Node,
         now: Instant,
         mut handle: impl FnMut(Req) -> Resp,
+    ) -> usize {
+        self.serve_or_park(node, now, |r| Some(handle(r.clone())))
+    }
+
+    /// As [`Self::serve`], but `handle` may answer None: the request waits
+    /// for [`Self::answer_parked`] (at most [`MAX_HELD_REPLIES`] wait; beyond
+    /// that a request is dropped, its client waiting in vain, and logged).
+    pub fn serve_or_park(
+        &mut self,
+        node: &Node,
+        now: Instant,
+        mut handle: impl FnMut(&Req) -> Option<Resp>,
     ) -> usize {
         let forced = self.forced;
         let mut n = 0;
@@ -126,7 +148,23 @@ impl<Req: Message + Clone + 'static, Resp: Message + 'static> Service<Req, Resp>
             match got {
                 Ok(Some((id, req, mapping, info))) => {
                     n += 1;
-                    let resp = handle(req);
+                    let Some(resp) = handle(&req) else {
+                        if self.parked.len() < MAX_HELD_REPLIES {
+                            self.parked.push(Parked {
+                                id,
+                                req,
+                                mapping,
+                                client: info.publisher_gid(),
+                            });
+                        } else {
+                            node_log!(
+                                Warn,
+                                "service {}: too many waiting requests; one dropped",
+                                self.name
+                            );
+                        }
+                        continue;
+                    };
                     self.held.push(Held {
                         id,
                         resp,
@@ -154,6 +192,32 @@ impl<Req: Message + Clone + 'static, Resp: Message + 'static> Service<Req, Resp>
         }
         self.flush(node, now);
         n
+    }
+
+    /// Answers the parked requests `f` has an answer for now.
+    pub fn answer_parked(
+        &mut self,
+        node: &Node,
+        now: Instant,
+        mut f: impl FnMut(&Req) -> Option<Resp>,
+    ) {
+        let mut k = 0;
+        while k < self.parked.len() {
+            match f(&self.parked[k].req) {
+                Some(resp) => {
+                    let p = self.parked.swap_remove(k);
+                    self.held.push(Held {
+                        id: p.id,
+                        resp,
+                        mapping: p.mapping,
+                        client: p.client,
+                        deadline: now + REPLY_HOLD,
+                    });
+                }
+                None => k += 1,
+            }
+        }
+        self.flush(node, now);
     }
 
     /// Sends the held replies whose client's reply reader has matched (or
@@ -261,7 +325,7 @@ impl Control {
 
     /// Steps `n` times while paused, stopping early at full deployment or a
     /// failed step; returns the steps taken and why it stopped early.
-    fn step_paused(&mut self, sim: &mut Simulator, n: u64) -> (u64, Option<String>) {
+    pub fn step_paused(&mut self, sim: &mut Simulator, n: u64) -> (u64, Option<String>) {
         let mut done = 0;
         while done < n {
             if sim.state().deployed {
@@ -327,12 +391,14 @@ impl Control {
                     SIMULATION_STATE_PAUSE,
                     STEP_SIMULATION_SINGLE,
                     STEP_SIMULATION_MULTIPLE,
+                    STEP_SIMULATION_ACTION,
                 ],
                 spawn_formats: Vec::new(),
                 custom_info: format!(
                     "truss-deploy {}: deployment of space deployable trusses; reset is whole \
-                     (time and state: SCOPE_DEFAULT or SCOPE_ALL); no entities, worlds or \
-                     SimulateSteps action",
+                     (time and state: SCOPE_DEFAULT or SCOPE_ALL); no entities or worlds; \
+                     the SimulateSteps action at /truss/simulate_steps steps at the real-time \
+                     factor",
                     env!("CARGO_PKG_VERSION")
                 ),
             },

@@ -516,3 +516,49 @@ fn two_partial_commands_written_together_both_apply() {
     assert_eq!(v["accepted"], 2, "{v}");
     assert_eq!(v["tensions"], v["want"], "both partial commands in force");
 }
+
+/// SimulateSteps from a Cyclone client: 200 steps with feedback every 10 and
+/// the stamps 200 steps further; a second goal canceled after its first
+/// feedback ends CANCELED, short of 200.
+#[test]
+fn simulate_steps_action_runs_200_steps_with_feedback_and_cancels() {
+    let Some(py) = python() else { return };
+    let dom = domain(7);
+    // paused, so that only the action steps; rtf 10: 200 steps of 0.05 s in 1 s
+    let _node = spawn_node(dom, &["--paused", "--rtf", "10"]);
+    let v = graph_peer(
+        &py,
+        dom,
+        &[("PEER_ACTION", "1"), ("PEER_ACTION_STEPS", "200")],
+    );
+    eprintln!("{v:#}");
+    assert_eq!(v["accepted"], true);
+    let fb: Vec<(u64, u64)> = v["feedback"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| (f[0].as_u64().unwrap(), f[1].as_u64().unwrap()))
+        .collect();
+    let want: Vec<(u64, u64)> = (1..=20).map(|k| (10 * k, 200 - 10 * k)).collect();
+    assert_eq!(fb, want, "feedback every 10 steps");
+    assert_eq!(v["status"], 4, "STATUS_SUCCEEDED");
+    assert_eq!(v["result"][0], 1, "RESULT_OK");
+    let (t0, t1) = (
+        v["stamp_before"].as_f64().unwrap(),
+        v["stamp_after"].as_f64().unwrap(),
+    );
+    assert!((t1 - t0 - 200.0 * 0.05).abs() < 1e-6, "{t0} -> {t1}");
+    // cancel
+    assert_eq!(v["accepted2"], true);
+    assert!(v["first_feedback2"][0].as_u64().unwrap() >= 10);
+    assert_eq!(v["cancel_code"], 0, "ERROR_NONE");
+    assert_eq!(v["canceling"], 1);
+    assert_eq!(v["status2"], 5, "STATUS_CANCELED: {v}");
+    let msg = v["result2"][1].as_str().unwrap();
+    let done: u64 = msg
+        .strip_prefix("canceled after ")
+        .and_then(|m| m.split(' ').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("{msg}"));
+    assert!((10..200).contains(&done), "{msg}");
+}

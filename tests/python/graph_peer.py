@@ -11,6 +11,9 @@
   - with PEER_SAIL_CMDS=1 (the sail array): writes two partial CableForceCommands back to
     back, one for drive_A and one for drive_B, and reads /truss/lock_status until both are
     in force (or the budget ends);
+  - with PEER_ACTION=1: drives /truss/simulate_steps (SimulateSteps) as rcl_action over
+    rmw_cyclonedds does: a goal of PEER_ACTION_STEPS steps run to its end (feedback, result,
+    the stamp advance on rt/joint_states), then a second one canceled after its first feedback;
   - with PEER_PARAMS=NODE (e.g. /truss_deploy): calls the node's parameter services
     as rmw_cyclonedds_cpp does (`ros2 param list/get/describe/set`), measuring the
     real-time factor on rt/joint_states before and after setting rtf to PEER_SET_RTF.
@@ -27,7 +30,7 @@ from dataclasses import dataclass
 from cyclonedds.builtin import BuiltinDataReader, BuiltinTopicDcpsPublication, BuiltinTopicDcpsSubscription
 from cyclonedds.domain import DomainParticipant
 from cyclonedds.idl import IdlStruct
-from cyclonedds.idl.types import float64, int32, int64, sequence, uint8, uint32, uint64
+from cyclonedds.idl.types import array, float64, int8, int32, int64, sequence, uint8, uint32, uint64
 from cyclonedds.pub import DataWriter
 from cyclonedds.qos import Policy, Qos
 from cyclonedds.sub import DataReader
@@ -303,6 +306,136 @@ def params_session(dp, node, rel):
     return out
 
 
+# SimulateSteps (simulation_interfaces/action) and action_msgs, with the Cyclone header.
+@dataclass
+class UUID(IdlStruct, typename="unique_identifier_msgs::msg::dds_::UUID_"):
+    uuid: array[uint8, 16]
+
+
+@dataclass
+class GoalInfo(IdlStruct, typename="action_msgs::msg::dds_::GoalInfo_"):
+    goal_id: UUID
+    stamp: Time
+
+
+@dataclass
+class SimResult(IdlStruct, typename="simulation_interfaces::msg::dds_::Result_"):
+    result: uint8
+    error_message: str
+
+
+@dataclass
+class SendGoalRq(IdlStruct, typename="simulation_interfaces::action::dds_::SimulateSteps_SendGoal_Request_"):
+    guid: uint64
+    seq: int64
+    goal_id: UUID
+    steps: uint64
+
+
+@dataclass
+class SendGoalRp(IdlStruct, typename="simulation_interfaces::action::dds_::SimulateSteps_SendGoal_Response_"):
+    guid: uint64
+    seq: int64
+    accepted: bool
+    stamp: Time
+
+
+@dataclass
+class CancelGoalRq(IdlStruct, typename="action_msgs::srv::dds_::CancelGoal_Request_"):
+    guid: uint64
+    seq: int64
+    goal_info: GoalInfo
+
+
+@dataclass
+class CancelGoalRp(IdlStruct, typename="action_msgs::srv::dds_::CancelGoal_Response_"):
+    guid: uint64
+    seq: int64
+    return_code: int8
+    goals_canceling: sequence[GoalInfo]
+
+
+@dataclass
+class GetResultRq(IdlStruct, typename="simulation_interfaces::action::dds_::SimulateSteps_GetResult_Request_"):
+    guid: uint64
+    seq: int64
+    goal_id: UUID
+
+
+@dataclass
+class GetResultRp(IdlStruct, typename="simulation_interfaces::action::dds_::SimulateSteps_GetResult_Response_"):
+    guid: uint64
+    seq: int64
+    status: int8
+    result: SimResult
+
+
+@dataclass
+class Feedback(IdlStruct, typename="simulation_interfaces::action::dds_::SimulateSteps_FeedbackMessage_"):
+    goal_id: UUID
+    completed_steps: uint64
+    remaining_steps: uint64
+
+
+def action_session(dp, rel, steps):
+    """A goal run to its end, then one canceled after its first feedback."""
+    q = Qos(Policy.Reliability.Reliable(duration(milliseconds=100)), Policy.Durability.Volatile,
+            Policy.History.KeepLast(100), Policy.DataRepresentation(use_cdrv0_representation=True))
+    base = "/truss/simulate_steps/_action"
+    send = Client(dp, f"{base}/send_goal", SendGoalRq, SendGoalRp, q)
+    cancel = Client(dp, f"{base}/cancel_goal", CancelGoalRq, CancelGoalRp, q)
+    result = Client(dp, f"{base}/get_result", GetResultRq, GetResultRp, q)
+    fb = DataReader(dp, Topic(dp, f"rt{base}/feedback", Feedback), qos=q)
+    js = DataReader(dp, Topic(dp, "rt/joint_states", JointState), qos=rel)
+    out = {}
+
+    def latest_stamp():
+        t, t0 = None, time.monotonic()
+        for _ in range(100):
+            for x in js.take(N=500):
+                t = stamp_s(x.header)
+            if t is not None and time.monotonic() - t0 > 0.4:
+                break
+            time.sleep(0.01)
+        return t
+
+    def feedback_of(gid, until_s, first_only=False):
+        got, t0 = [], time.monotonic()
+        for _ in range(int(until_s / 0.005) + 1):
+            for f in fb.take(N=100):
+                if list(f.goal_id.uuid) == gid:
+                    got.append([f.completed_steps, f.remaining_steps])
+            if (first_only and got) or time.monotonic() - t0 > until_s:
+                break
+            if got and got[-1][1] == 0:
+                break
+            time.sleep(0.005)
+        return got
+
+    # 1. a goal to its end
+    out["stamp_before"] = latest_stamp()
+    gid = list(range(1, 17))
+    rp = send.call(goal_id=UUID(uuid=gid), steps=steps)
+    out["accepted"] = rp.accepted if rp else None
+    out["feedback"] = feedback_of(gid, 20.0)
+    rp = result.call(timeout_s=20.0, goal_id=UUID(uuid=gid))
+    out["status"], out["result"] = (rp.status, [rp.result.result, rp.result.error_message]) if rp else (None, None)
+    time.sleep(0.3)
+    out["stamp_after"] = latest_stamp()
+    # 2. a goal canceled after its first feedback
+    gid2 = list(range(101, 117))
+    rp = send.call(goal_id=UUID(uuid=gid2), steps=steps)
+    out["accepted2"] = rp.accepted if rp else None
+    first = feedback_of(gid2, 10.0, first_only=True)
+    out["first_feedback2"] = first[0] if first else None
+    rp = cancel.call(goal_info=GoalInfo(goal_id=UUID(uuid=gid2), stamp=Time(sec=0, nanosec=0)))
+    out["cancel_code"] = rp.return_code if rp else None
+    out["canceling"] = len(rp.goals_canceling) if rp else None
+    rp = result.call(timeout_s=20.0, goal_id=UUID(uuid=gid2))
+    out["status2"], out["result2"] = (rp.status, [rp.result.result, rp.result.error_message]) if rp else (None, None)
+    return out
+
+
 def sail_commands(dp, rel, budget_s):
     """Two partial commands written together; the tensions LockStatus shows after them."""
     xcdr1 = Policy.DataRepresentation(use_cdrv0_representation=True)
@@ -363,6 +496,12 @@ def main() -> int:
     want_tf = os.environ.get("PEER_TF") == "1"
     dp = DomainParticipant(domain)
     xcdr1 = Policy.DataRepresentation(use_cdrv0_representation=True)
+    if os.environ.get("PEER_ACTION") == "1":
+        rel = Qos(Policy.Reliability.Reliable(duration(milliseconds=100)),
+                  Policy.Durability.Volatile, Policy.History.KeepLast(100), xcdr1)
+        steps = int(os.environ.get("PEER_ACTION_STEPS", "200"))
+        print("SUMMARY " + json.dumps(action_session(dp, rel, steps)), flush=True)
+        return 0
     if os.environ.get("PEER_SAIL_CMDS") == "1":
         rel10 = Qos(Policy.Reliability.Reliable(duration(milliseconds=100)),
                     Policy.Durability.Volatile, Policy.History.KeepLast(10), xcdr1)
