@@ -274,6 +274,17 @@ fn bad_ros_args_and_environment_fail_with_status_2() {
             "/nonexistent/p.yaml",
         ),
         (&["--rtf", "0"], None, "--rtf"),
+        (&["--tf-frames", "L4,nope"], None, "no joint `nope`"),
+        (
+            &["--ros-args", "-p", "tf_frames:=[L4, 7]"],
+            None,
+            "one type",
+        ),
+        (
+            &["--ros-args", "-p", "rate_hz:=.inf"],
+            None,
+            "outside its range",
+        ),
         (
             &[],
             Some(("ROS_LOCALHOST_ONLY", "yes")),
@@ -561,4 +572,54 @@ fn simulate_steps_action_runs_200_steps_with_feedback_and_cancels() {
         .and_then(|n| n.parse().ok())
         .unwrap_or_else(|| panic!("{msg}"));
     assert!((10..200).contains(&done), "{msg}");
+}
+
+/// `--params-file` in ROS 2's layout sets parameters (the `/**` section, then
+/// the node's own, -p after both), and `--log-level warn` keeps info lines
+/// (the start line) off stdout. Short runs on loopback.
+#[test]
+fn params_file_and_log_level_take_effect() {
+    let dir = std::env::temp_dir().join(format!("truss_ros_{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let yaml = dir.join("p.yaml");
+    std::fs::write(
+        &yaml,
+        "/**:\n  ros__parameters:\n    rtf: 3.0\n    lock_period_s: 2.0\n\
+         other:\n  ros__parameters:\n    rtf: 9.0\n\
+         mast:\n  ros__parameters:\n    rate_hz: 12.5\n    tf_frames:\n    - R4\n    - L4\n",
+    )
+    .unwrap();
+    let run = |extra: &[&str]| {
+        let r = Command::new(BIN)
+            .args(["node", MODEL, "--max-wall-s", "1"])
+            .args(extra)
+            .env("ROS_DOMAIN_ID", domain(8).to_string())
+            .env("TRUSS_DDS_LOOPBACK", "1")
+            .output()
+            .unwrap();
+        assert_eq!(
+            r.status.code(),
+            Some(0),
+            "{}",
+            String::from_utf8_lossy(&r.stderr)
+        );
+        String::from_utf8_lossy(&r.stdout).to_string()
+    };
+    let y = yaml.to_str().unwrap();
+    let out = run(&["--ros-args", "-r", "__node:=mast", "--params-file", y]);
+    let start = out
+        .lines()
+        .find(|l| l.contains("on ROS domain"))
+        .unwrap_or_else(|| panic!("{out}"));
+    assert!(start.starts_with("mast: node /mast"), "{start}");
+    assert!(
+        start.contains(", rtf 3, publishing at 12.500 Hz"),
+        "{start}"
+    );
+    // -p after the file wins
+    let out = run(&["--ros-args", "--params-file", y, "-p", "rtf:=4.0"]);
+    assert!(out.contains(", rtf 4, publishing at 80.000 Hz"), "{out}");
+    let quiet = run(&["--ros-args", "--log-level", "warn"]);
+    assert!(!quiet.contains("on ROS domain"), "{quiet}");
+    let _ = std::fs::remove_dir_all(&dir);
 }
