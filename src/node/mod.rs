@@ -360,6 +360,7 @@ fn create_endpoints(
     names: &Naming,
     a: &NodeArgs,
     p: &Params,
+    events_topic: &ros2_client::dds::rustdds::Topic,
 ) -> Result<Endpoints, String> {
     let e = |what: &str, err: &dyn std::fmt::Debug| format!("create {what}: {err:?}");
     let clock = if !p.boolean(params::PUBLISH_CLOCK) {
@@ -439,8 +440,12 @@ fn create_endpoints(
         .create_subscription::<CableForceCommand>(&cmd_t, None)
         .map_err(|x| e("cable_force_cmd", &x))?;
     let srv = Services::new(node, names, forced_mapping(a.service_mapping))?;
-    let params_srv =
-        param_services::ParamServices::new(node, names, forced_mapping(a.service_mapping))?;
+    let params_srv = param_services::ParamServices::new(
+        node,
+        names,
+        forced_mapping(a.service_mapping),
+        events_topic,
+    )?;
     let action = sim_action::SimulateSteps::new(node, names, forced_mapping(a.service_mapping))?;
     Ok(Endpoints {
         js,
@@ -604,7 +609,14 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
         )
         .map_err(|e| NodeError::Run(format!("node: {e:?}")))?;
     log::attach(node.logging_handle());
-    let mut ep = create_endpoints(&mut node, &names, &a, &par.params).map_err(NodeError::Run)?;
+    let mut ep = create_endpoints(
+        &mut node,
+        &names,
+        &a,
+        &par.params,
+        &context.get_parameter_events_topic(),
+    )
+    .map_err(NodeError::Run)?;
     let spinner = node
         .spinner()
         .map_err(|e| NodeError::Run(format!("spinner: {e:?}")))?;

@@ -3,15 +3,17 @@
 //! `set_parameters_atomically`, `describe_parameters`), as `ros2 param` calls
 //! them, answering every client in its own service mapping like the node's
 //! other services ([`super::services::Service`]). The values live in
-//! [`Params`]; the handlers here are pure.
+//! [`Params`]; the handlers here are pure. A set that changes values is
+//! announced on `/parameter_events` (rcl_interfaces/ParameterEvent).
 
 use super::params::{Descriptor, Kind, Params};
 use super::rosargs::ParamValue;
 use super::services::Service;
 use super::Naming;
+use ros2_client::dds::rustdds::Topic;
 use ros2_client::parameters::raw;
 use ros2_client::rcl_interfaces::*;
-use ros2_client::{Node, ServiceMapping, ServiceTypeName};
+use ros2_client::{Node, Publisher, ServiceMapping, ServiceTypeName};
 use std::time::Instant;
 
 /// raw::ParameterValue of a value.
@@ -236,14 +238,18 @@ pub struct ParamServices {
     set: Service<SetParametersRequest, SetParametersResponse>,
     set_atomically: Service<SetParametersRequest, SetParametersAtomicallyResponse>,
     describe: Service<DescribeParametersRequest, DescribeParametersResponse>,
+    events: Publisher<raw::ParameterEvent>,
+    node_fqn: String,
 }
 
 impl ParamServices {
     /// Creates them under the node's name (`~/get_parameters`, ...).
+    /// `events_topic`: the context's `/parameter_events`.
     pub fn new(
         node: &mut Node,
         names: &Naming,
         forced: Option<ServiceMapping>,
+        events_topic: &Topic,
     ) -> Result<Self, String> {
         fn mk<Q, R>(
             node: &mut Node,
@@ -288,6 +294,10 @@ impl ParamServices {
                 "describe_parameters",
                 "DescribeParameters",
             )?,
+            events: node
+                .create_publisher(events_topic, None)
+                .map_err(|e| format!("create /parameter_events writer: {e:?}"))?,
+            node_fqn: names.full("~")?,
         })
     }
 
@@ -301,6 +311,23 @@ impl ParamServices {
         self.set.serve(node, now, |r| set(p, &r, &mut changed));
         self.set_atomically
             .serve(node, now, |r| set_atomically(p, &r, &mut changed));
+        if !changed.is_empty() {
+            let _ = self.events.publish(raw::ParameterEvent {
+                stamp: ros2_client::builtin_interfaces::Time::now(),
+                node: self.node_fqn.clone(),
+                new_parameters: Vec::new(),
+                changed_parameters: changed
+                    .iter()
+                    .filter_map(|n| {
+                        p.get(n).map(|v| raw::Parameter {
+                            name: n.clone(),
+                            value: to_raw(v),
+                        })
+                    })
+                    .collect(),
+                deleted_parameters: Vec::new(),
+            });
+        }
         changed
     }
 }

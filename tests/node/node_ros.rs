@@ -452,6 +452,15 @@ fn parameters_listed_got_described_and_set_live_from_a_cyclone_client() {
         set[2][1]
     );
     assert_eq!(v["rtf_get_after"], 2.0);
+    assert!(
+        v["events"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .any(|e| e == &serde_json::json!(["/truss_deploy", [["rtf", 2.0]]])),
+        "/parameter_events announces the change: {}",
+        v["events"]
+    );
     let (before, after) = (
         v["rtf_before"].as_f64().expect("rtf measured before"),
         v["rtf_after"].as_f64().expect("rtf measured after"),

@@ -132,6 +132,15 @@ class Parameter(IdlStruct, typename="rcl_interfaces::msg::dds_::Parameter_"):
 
 
 @dataclass
+class ParameterEvent(IdlStruct, typename="rcl_interfaces::msg::dds_::ParameterEvent_"):
+    stamp: Time
+    node: str
+    new_parameters: sequence[Parameter]
+    changed_parameters: sequence[Parameter]
+    deleted_parameters: sequence[Parameter]
+
+
+@dataclass
 class SetParametersResult(IdlStruct, typename="rcl_interfaces::msg::dds_::SetParametersResult_"):
     successful: bool
     reason: str
@@ -279,6 +288,7 @@ def params_session(dp, node, rel):
             Policy.History.KeepLast(10), Policy.DataRepresentation(use_cdrv0_representation=True))
     out = {}
     js = DataReader(dp, Topic(dp, "rt/joint_states", JointState), qos=rel)
+    events = DataReader(dp, Topic(dp, "rt/parameter_events", ParameterEvent), qos=q)
     lst = Client(dp, f"{node}/list_parameters", ListParametersRq, ListParametersRp, q)
     get = Client(dp, f"{node}/get_parameters", GetParametersRq, GetParametersRp, q)
     desc = Client(dp, f"{node}/describe_parameters", DescribeParametersRq, DescribeParametersRp, q)
@@ -303,6 +313,8 @@ def params_session(dp, node, rel):
     out["rtf_after"] = measure_rtf(js, 3.0)
     rp = get.call(names=["rtf"])
     out["rtf_get_after"] = rp.values[0].double_value if rp else None
+    out["events"] = [[e.node, [[p.name, p.value.double_value] for p in e.changed_parameters]]
+                     for e in events.take(N=100)]
     return out
 
 
