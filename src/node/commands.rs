@@ -153,6 +153,10 @@ impl CommandBook {
     }
 }
 
+/// A tick's merged commands: (cable, tension) in arrival order, the first
+/// command's source stamp (ns since the Unix epoch, 0 if none) and take time.
+pub type Taken = (Vec<(usize, f64)>, i64, Instant);
+
 /// The valid commands taken in one tick, merged in arrival order: a later
 /// command's tension for a cable replaces an earlier one's, and cables no
 /// command names keep theirs (two partial commands for different cables both
@@ -171,7 +175,7 @@ impl Pending {
 
     /// (cable, tension) in arrival order, to be applied in that order, with
     /// the first command's source stamp and take time; None if nothing came.
-    pub fn take(&mut self) -> Option<(Vec<(usize, f64)>, i64, Instant)> {
+    pub fn take(&mut self) -> Option<Taken> {
         let (src, taken) = self.first.take()?;
         Some((std::mem::take(&mut self.tensions), src, taken))
     }
