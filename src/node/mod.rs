@@ -1,5 +1,8 @@
 //! The ROS 2 node (feature `ros`): steps the [`Simulator`] in real time and
-//! publishes over DDS with ros2-client on a tokio current_thread runtime.
+//! publishes over DDS with ros2-client on a tokio current_thread runtime. Its
+//! settings are ROS parameters ([`params`], served by [`param_services`]),
+//! set from flags and `--ros-args` ([`rosargs`]); its log goes to /rosout
+//! ([`log`]).
 //! Topics, types and QoS follow ../shared/DESIGN.md "ROS 2 interface"; see
 //! launch_notes.md for running it next to a ROS 2 installation.
 
@@ -77,11 +80,12 @@ pub enum Mapping {
 pub struct NodeArgs {
     /// Model file (TOML).
     pub model: PathBuf,
-    /// Publish rate of /joint_states, /truss/state and /clock (Hz). Default: one
-    /// publication per simulation step at the chosen --rtf, at most 100 Hz.
+    /// Publish rate of /joint_states, /truss/state, /clock and /tf (Hz);
+    /// parameter `rate_hz`. Default: one publication per simulation step at
+    /// the chosen real-time factor, at most 100 Hz.
     #[arg(long, allow_negative_numbers = true)]
     pub rate: Option<f64>,
-    /// Real-time factor: simulated seconds per wall-clock second.
+    /// Real-time factor: simulated seconds per wall-clock second (parameter `rtf`).
     #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
     pub rtf: f64,
     /// Node namespace; topics and services are resolved in it (/clock stays
