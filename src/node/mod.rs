@@ -489,26 +489,25 @@ fn unix_now_ns() -> i64 {
 
 /// The node's parameters at start: the flags' values, then the `--ros-args`
 /// overrides; `ignored` lists params-file entries for names it does not have.
+/// The model comes from the `model` parameter, and [`Self::complete`] gives
+/// the defaults that depend on it (rate, /tf joints) unless they were given.
 struct StartParams {
     params: Params,
     ignored: Vec<String>,
+    rate_given: bool,
+    tf_frames_given: bool,
 }
 
-fn start_params(
-    a: &NodeArgs,
-    ros: &RosArgs,
-    fqn: &str,
-    dt_s: f64,
-    tf_frames: Vec<String>,
-) -> Result<StartParams, String> {
+/// Start value of `rate_hz` until the model gives the default.
+const RATE_HZ_UNTIL_MODEL: f64 = 20.0;
+
+fn start_params(a: &NodeArgs, ros: &RosArgs, fqn: &str) -> Result<StartParams, String> {
     use params::*;
-    // One publication per step at the real-time factor, at most 100 Hz.
-    let auto_rate = |rtf: f64| (rtf / dt_s).min(100.0);
     let start = vec![
         (RTF, ParamValue::Double(a.rtf)),
         (
             RATE_HZ,
-            ParamValue::Double(a.rate.unwrap_or(auto_rate(a.rtf.clamp(1e-3, 1000.0)))),
+            ParamValue::Double(a.rate.unwrap_or(RATE_HZ_UNTIL_MODEL)),
         ),
         (MARKER_RATE_HZ, ParamValue::Double(5.0)),
         (LOCK_PERIOD_S, ParamValue::Double(a.lock_period_s)),
@@ -517,16 +516,37 @@ fn start_params(
         (PARENT_FRAME_ID, ParamValue::Str("world".into())),
         (PUBLISH_CLOCK, ParamValue::Bool(!a.no_clock)),
         (USE_SIM_TIME, ParamValue::Bool(false)),
-        (TF_FRAMES, ParamValue::StrArray(tf_frames)),
+        (
+            TF_FRAMES,
+            ParamValue::StrArray(a.tf_frames.clone().unwrap_or_default()),
+        ),
     ];
     let mut params = Params::new(start)?;
     let ignored = params.apply_overrides(ros, fqn)?;
-    let rate_given = a.rate.is_some() || ros.params_for(fqn).any(|p| p.name == RATE_HZ);
-    if !rate_given {
-        let r = auto_rate(params.f64(RTF)).max(1e-2);
-        params.set(RATE_HZ, ParamValue::Double(r))?;
+    let given = |name: &str| ros.params_for(fqn).any(|p| p.name == name);
+    Ok(StartParams {
+        params,
+        ignored,
+        rate_given: a.rate.is_some() || given(RATE_HZ),
+        tf_frames_given: a.tf_frames.is_some() || given(TF_FRAMES),
+    })
+}
+
+impl StartParams {
+    /// The defaults that depend on the model: one publication per step at the
+    /// real-time factor (at most 100 Hz), and the /tf joints.
+    fn complete(&mut self, dt_s: f64, tf_default: Vec<String>) -> Result<(), String> {
+        use params::*;
+        if !self.rate_given {
+            let r = (self.params.f64(RTF) / dt_s).clamp(1e-2, 100.0);
+            self.params.set_start(RATE_HZ, ParamValue::Double(r))?;
+        }
+        if !self.tf_frames_given {
+            self.params
+                .set_start(TF_FRAMES, ParamValue::StrArray(tf_default))?;
+        }
+        Ok(())
     }
-    Ok(StartParams { params, ignored })
 }
 
 /// The settings the main loop reads, from the parameters (again after each set).
@@ -576,16 +596,16 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
         &log::logger_name(&fqn),
         ros.log_level.unwrap_or(LogLevel::Info),
     );
-    let loaded = crate::model::load(&a.model).map_err(|e| input(e.to_string()))?;
+    let mut par = start_params(&a, &ros, &fqn).map_err(input)?;
+    // (the model argument, or the `model` parameter set by --ros-args)
+    let model_path = PathBuf::from(par.params.string(params::MODEL));
+    let loaded = crate::model::load(&model_path).map_err(|e| input(e.to_string()))?;
     let checks = loaded.checks.clone();
     let mut sim = Simulator::new(loaded.model, Options::default())
-        .map_err(|e| input(format!("{}: {e}", a.model.display())))?;
+        .map_err(|e| input(format!("{}: {e}", model_path.display())))?;
     let dt = sim.model().dt_s;
-    let tf_frames = match &a.tf_frames {
-        Some(v) => v.clone(),
-        None => publish::default_tf_joints(sim.model()),
-    };
-    let mut par = start_params(&a, &ros, &fqn, dt, tf_frames).map_err(input)?;
+    par.complete(dt, publish::default_tf_joints(sim.model()))
+        .map_err(input)?;
     let tf_joints = publish::tf_joint_indices(sim.model(), par.params.strings(params::TF_FRAMES))
         .map_err(input)?;
     for p in &par.ignored {

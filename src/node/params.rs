@@ -186,10 +186,20 @@ impl Params {
     /// Sets a parameter while running: refused (with the reason) if unknown,
     /// read-only, of another type or out of range.
     pub fn set(&mut self, name: &str, value: ParamValue) -> Result<(), String> {
+        self.set_checked(name, value, false)
+    }
+
+    /// Sets a start value found only later (one that depends on the model),
+    /// read-only or not; checked as any other.
+    pub fn set_start(&mut self, name: &str, value: ParamValue) -> Result<(), String> {
+        self.set_checked(name, value, true)
+    }
+
+    fn set_checked(&mut self, name: &str, value: ParamValue, at_start: bool) -> Result<(), String> {
         let Some((d, v)) = self.entries.iter_mut().find(|(d, _)| d.name == name) else {
             return Err(format!("no parameter `{name}`"));
         };
-        if d.read_only {
+        if d.read_only && !at_start {
             return Err(format!("parameter `{name}` is read-only"));
         }
         *v = check(d, value)?;

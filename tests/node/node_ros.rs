@@ -628,6 +628,10 @@ fn params_file_and_log_level_take_effect() {
     // -p after the file wins
     let out = run(&["--ros-args", "--params-file", y, "-p", "rtf:=4.0"]);
     assert!(out.contains(", rtf 4, publishing at 80.000 Hz"), "{out}");
+    // the read-only `model` set at start is the model the node runs
+    let sail = concat!(env!("CARGO_MANIFEST_DIR"), "/models/sail_array.toml");
+    let out = run(&["--ros-args", "-p", &format!("model:={sail}")]);
+    assert!(out.contains("; model sail_array ("), "{out}");
     let quiet = run(&["--ros-args", "--log-level", "warn"]);
     assert!(!quiet.contains("on ROS domain"), "{quiet}");
     let _ = std::fs::remove_dir_all(&dir);
