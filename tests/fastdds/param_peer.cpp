@@ -5,10 +5,14 @@
 // matched by related_sample_identity (tests/node/node_ros.rs). Types by hand
 // from rcl_interfaces. It lists the parameters, gets rtf and model, sets rtf to
 // PEER_SET_RTF together with a read-only one (refused), and gets rtf again.
+// With PEER_ACTION=1 it drives /truss/simulate_steps instead (SimulateSteps,
+// rcl_action's layout): a goal of 200 steps, its feedback and its result.
 // Every loop is bounded in count and time; loopback only. Env: ROS_DOMAIN_ID,
 // PEER_NODE (default /truss_deploy), PEER_SET_RTF (default 3.0). Prints one
 // line `SUMMARY {json}`.
 #include "common.hpp"
+
+#include <array>
 
 
 struct ParameterValue {  // rcl_interfaces/msg/ParameterValue
@@ -128,6 +132,83 @@ struct FastClient {
     }
 };
 
+// SimulateSteps (simulation_interfaces/action) as rmw_fastrtps puts it on the wire.
+using GoalId = std::array<uint8_t, 16>;
+struct SendGoalRq {
+    GoalId goal_id{};
+    uint64_t steps = 0;
+    void serialize(Cdr& c) const { c << goal_id << steps; }
+    void deserialize(Cdr& c) { c >> goal_id >> steps; }
+    static const char* type() { return "simulation_interfaces::action::dds_::SimulateSteps_SendGoal_Request_"; }
+};
+struct SendGoalRp {
+    bool accepted = false;
+    Time stamp;
+    void serialize(Cdr&) const {}
+    void deserialize(Cdr& c) { c >> accepted >> stamp.sec >> stamp.nanosec; }
+    static const char* type() { return "simulation_interfaces::action::dds_::SimulateSteps_SendGoal_Response_"; }
+};
+struct GetResultRq {
+    GoalId goal_id{};
+    void serialize(Cdr& c) const { c << goal_id; }
+    void deserialize(Cdr& c) { c >> goal_id; }
+    static const char* type() { return "simulation_interfaces::action::dds_::SimulateSteps_GetResult_Request_"; }
+};
+struct GetResultRp {
+    int8_t status = 0;
+    uint8_t result = 0;
+    std::string error_message;
+    void serialize(Cdr&) const {}
+    void deserialize(Cdr& c) { c >> status >> result >> error_message; }
+    static const char* type() { return "simulation_interfaces::action::dds_::SimulateSteps_GetResult_Response_"; }
+};
+struct FeedbackMessage {
+    GoalId goal_id{};
+    uint64_t completed_steps = 0, remaining_steps = 0;
+    void serialize(Cdr&) const {}
+    void deserialize(Cdr& c) { c >> goal_id >> completed_steps >> remaining_steps; }
+    static const char* type() { return "simulation_interfaces::action::dds_::SimulateSteps_FeedbackMessage_"; }
+};
+
+// A goal of 200 steps run to its end: {"accepted", "feedback": [[done, left]...], "status", "result"}.
+static std::string action_session(DomainParticipant* p, Publisher* pub, Subscriber* sub) {
+    const std::string base = "/truss/simulate_steps/_action";
+    FastClient<SendGoalRq, SendGoalRp> send(p, pub, sub, base + "/send_goal");
+    FastClient<GetResultRq, GetResultRp> result(p, pub, sub, base + "/get_result");
+    DataReader* fb = sub->create_datareader(topic<FeedbackMessage>(p, ("rt" + base + "/feedback").c_str()),
+                                            reader_qos(false, 100));
+    std::ostringstream js;
+    if (!send.w || !result.w || !fb) return "{\"error\":\"endpoints\"}";
+    SendGoalRq g;
+    for (int k = 0; k < 16; ++k) g.goal_id[k] = uint8_t(200 + k);
+    g.steps = 200;
+    SendGoalRp gr;
+    js << "{\"accepted\":" << (send.call(g, gr, 10.0) ? (gr.accepted ? "true" : "false") : "null");
+    // feedback until the last one (bounded)
+    js << ",\"feedback\":[";
+    const auto t0 = Clock::now();
+    bool first = true, last = false;
+    for (int k = 0; k < 20000 && !last && secs_since(t0) < 20.0; ++k) {
+        FeedbackMessage f;
+        SampleInfo si;
+        while (fb->take_next_sample(&f, &si) == ReturnCode_t::RETCODE_OK) {
+            if (!si.valid_data || f.goal_id != g.goal_id) continue;
+            js << (first ? "" : ",") << "[" << f.completed_steps << "," << f.remaining_steps << "]";
+            first = false;
+            last = f.remaining_steps == 0;
+        }
+        std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+    GetResultRq rq;
+    rq.goal_id = g.goal_id;
+    GetResultRp rp;
+    if (result.call(rq, rp, 20.0))
+        js << "],\"status\":" << int(rp.status) << ",\"result\":" << int(rp.result) << "}";
+    else
+        js << "],\"status\":null}";
+    return js.str();
+}
+
 static ParameterValue double_value(double x) {
     ParameterValue v;
     v.type = 3;
@@ -149,6 +230,14 @@ int main() {
     }
     Publisher* pub = p->create_publisher(PUBLISHER_QOS_DEFAULT);
     Subscriber* sub = p->create_subscriber(SUBSCRIBER_QOS_DEFAULT);
+    const char* act = std::getenv("PEER_ACTION");
+    if (act && std::string(act) == "1") {
+        std::printf("SUMMARY %s\n", action_session(p, pub, sub).c_str());
+        std::fflush(stdout);
+        p->delete_contained_entities();
+        DomainParticipantFactory::get_instance()->delete_participant(p);
+        return 0;
+    }
     FastClient<ListRq, ListRp> list(p, pub, sub, node + "/list_parameters");
     FastClient<GetRq, GetRp> get(p, pub, sub, node + "/get_parameters");
     FastClient<SetRq, SetRp> set(p, pub, sub, node + "/set_parameters");

@@ -41,7 +41,21 @@ fn build_peer(name: &str) -> Result<PathBuf, String> {
 /// The peer built, or None (a loud SKIP) without Fast DDS; with
 /// TRUSS_REQUIRE_FASTDDS=1 (CI) a missing Fast DDS fails the test.
 pub(crate) fn peer_or_skip(name: &str) -> Option<PathBuf> {
-    match build_peer(name) {
+    // Built once per test process: tests run in parallel, and two g++ writing
+    // one binary while a third test runs it would race.
+    static BUILT: std::sync::Mutex<Vec<(String, Result<PathBuf, String>)>> =
+        std::sync::Mutex::new(Vec::new());
+    let mut built = BUILT.lock().unwrap_or_else(|e| e.into_inner());
+    let r = match built.iter().find(|(n, _)| n == name) {
+        Some((_, r)) => r.clone(),
+        None => {
+            let r = build_peer(name);
+            built.push((name.to_string(), r.clone()));
+            r
+        }
+    };
+    drop(built);
+    match r {
         Ok(p) => Some(p),
         Err(why) => {
             if std::env::var("TRUSS_REQUIRE_FASTDDS").as_deref() == Ok("1") {

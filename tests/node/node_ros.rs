@@ -636,3 +636,42 @@ fn params_file_and_log_level_take_effect() {
     assert!(!quiet.contains("on ROS domain"), "{quiet}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// SimulateSteps from a Fast DDS client as rmw_fastrtps calls it: 200 steps,
+/// feedback every 10, STATUS_SUCCEEDED with RESULT_OK.
+#[test]
+fn simulate_steps_action_from_a_fastdds_client() {
+    let Some(peer) = super::node_fastdds::peer_or_skip("param_peer") else {
+        return;
+    };
+    let dom = domain(9);
+    let _node = spawn_node(dom, &["--paused", "--rtf", "10"]);
+    let t0 = Instant::now();
+    let out = Command::new(&peer)
+        .env("ROS_DOMAIN_ID", dom.to_string())
+        .env("PEER_ACTION", "1")
+        .output()
+        .expect("run the Fast DDS peer");
+    assert!(t0.elapsed() < Duration::from_secs(60));
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    eprintln!("{stdout}\n{}", String::from_utf8_lossy(&out.stderr));
+    let line = stdout
+        .lines()
+        .find_map(|l| l.strip_prefix("SUMMARY "))
+        .expect("peer summary");
+    let v: Value = serde_json::from_str(line).unwrap();
+    assert_eq!(v["accepted"], true, "{v}");
+    let fb: Vec<(u64, u64)> = v["feedback"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| (f[0].as_u64().unwrap(), f[1].as_u64().unwrap()))
+        .collect();
+    let want: Vec<(u64, u64)> = (1..=20).map(|k| (10 * k, 200 - 10 * k)).collect();
+    assert_eq!(fb, want, "feedback every 10 steps");
+    assert_eq!(
+        (&v["status"], &v["result"]),
+        (&Value::from(4), &Value::from(1)),
+        "{v}"
+    );
+}
