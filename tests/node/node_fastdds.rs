@@ -74,7 +74,7 @@ fn fastdds_peer_talks_to_the_node_with_no_mapping_flag() {
     let Some(peer) = peer_or_skip("peer") else {
         return;
     };
-    let dom = 170 + (std::process::id() % 25) as u16;
+    let dom = crate::domain(4);
     let mut node = Command::new(env!("CARGO_BIN_EXE_truss-deploy"))
         .args([
             "node",

@@ -21,19 +21,10 @@ const MODEL: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/models/pantograph_mast
 const BIN: &str = env!("CARGO_BIN_EXE_truss-deploy");
 const PY_DIR: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/python");
 
-/// The k-th domain of this module's tests: one the other modules of this
-/// test binary (same process id) do not use, with its ports below 65536.
+/// The k-th domain of this module's tests (k < 12; see crate::domain).
 fn domain(k: u16) -> u16 {
-    let pid = std::process::id() as u16;
-    let mut used: Vec<u16> = (0..4).map(|j| 10 + ((pid % 45) * 4 + j) % 180).collect(); // node_dds
-    used.push(170 + pid % 25); // node_fastdds
-    used.push(200 + pid % 30); // node_cyclone
-    used.extend((0..3).map(|j| 190 + (pid % 10) * 3 + j)); // record_mcap
-    (0..=230)
-        .map(|i| 1 + (pid % 200 + i) % 231)
-        .filter(|d| !used.contains(d))
-        .nth(k as usize)
-        .unwrap()
+    assert!(k < 12);
+    crate::domain(10 + k)
 }
 
 struct NodeProc(Child);
