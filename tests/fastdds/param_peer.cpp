@@ -171,7 +171,7 @@ struct FeedbackMessage {
 };
 
 // A goal of 200 steps run to its end: {"accepted", "feedback": [[done, left]...], "status", "result"}.
-static std::string action_session(DomainParticipant* p, Publisher* pub, Subscriber* sub) {
+static std::string action_calls(DomainParticipant* p, Publisher* pub, Subscriber* sub) {
     const std::string base = "/truss/simulate_steps/_action";
     FastClient<SendGoalRq, SendGoalRp> send(p, pub, sub, base + "/send_goal");
     FastClient<GetResultRq, GetResultRp> result(p, pub, sub, base + "/get_result");
@@ -232,7 +232,7 @@ int main() {
     Subscriber* sub = p->create_subscriber(SUBSCRIBER_QOS_DEFAULT);
     const char* act = std::getenv("PEER_ACTION");
     if (act && std::string(act) == "1") {
-        std::printf("SUMMARY %s\n", action_session(p, pub, sub).c_str());
+        std::printf("SUMMARY %s\n", action_calls(p, pub, sub).c_str());
         std::fflush(stdout);
         p->delete_contained_entities();
         DomainParticipantFactory::get_instance()->delete_participant(p);

@@ -282,7 +282,7 @@ def measure_rtf(js, wall_s):
     return (last[1] - first[1]) / (last[0] - first[0])
 
 
-def params_session(dp, node, rel):
+def params_calls(dp, node, rel):
     """ros2 param list / get / describe / set from a Cyclone client; the rtf before and after."""
     q = Qos(Policy.Reliability.Reliable(duration(milliseconds=100)), Policy.Durability.Volatile,
             Policy.History.KeepLast(10), Policy.DataRepresentation(use_cdrv0_representation=True))
@@ -389,7 +389,7 @@ class Feedback(IdlStruct, typename="simulation_interfaces::action::dds_::Simulat
     remaining_steps: uint64
 
 
-def action_session(dp, rel, steps):
+def action_calls(dp, rel, steps):
     """A goal run to its end, then one canceled after its first feedback."""
     q = Qos(Policy.Reliability.Reliable(duration(milliseconds=100)), Policy.Durability.Volatile,
             Policy.History.KeepLast(100), Policy.DataRepresentation(use_cdrv0_representation=True))
@@ -512,7 +512,7 @@ def main() -> int:
         rel = Qos(Policy.Reliability.Reliable(duration(milliseconds=100)),
                   Policy.Durability.Volatile, Policy.History.KeepLast(100), xcdr1)
         steps = int(os.environ.get("PEER_ACTION_STEPS", "200"))
-        print("SUMMARY " + json.dumps(action_session(dp, rel, steps)), flush=True)
+        print("SUMMARY " + json.dumps(action_calls(dp, rel, steps)), flush=True)
         return 0
     if os.environ.get("PEER_SAIL_CMDS") == "1":
         rel10 = Qos(Policy.Reliability.Reliable(duration(milliseconds=100)),
@@ -522,7 +522,7 @@ def main() -> int:
     if os.environ.get("PEER_PARAMS"):
         rel = Qos(Policy.Reliability.Reliable(duration(milliseconds=100)),
                   Policy.Durability.Volatile, Policy.History.KeepLast(100), xcdr1)
-        out = params_session(dp, os.environ["PEER_PARAMS"], rel)
+        out = params_calls(dp, os.environ["PEER_PARAMS"], rel)
         print("SUMMARY " + json.dumps(out), flush=True)
         return 0
     pubs = BuiltinDataReader(dp, BuiltinTopicDcpsPublication)
