@@ -44,6 +44,10 @@ enum Cmd {
     Bench(BenchArgs),
     /// Run the ROS 2 node: step in real time, publish over DDS (see launch_notes.md).
     #[cfg(feature = "ros")]
+    #[command(
+        after_help = "ROS 2 arguments, after the others: --ros-args [-r FROM:=TO]... [-p NAME:=VALUE]... \
+                      [--params-file FILE]... [--log-level LEVEL] [--] (rcl's syntax; launch_notes.md)"
+    )]
     Node(crate::node::NodeArgs),
     /// Drive a running node: ease the cable tension as deploy_fraction nears 1
     /// (`--offline MODEL`: compare with constant tension in-process, no DDS).

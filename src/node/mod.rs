@@ -128,9 +128,10 @@ pub struct NodeArgs {
     /// chunk is closed every second so that a killed node leaves a readable file.
     #[arg(long, value_name = "FILE.mcap")]
     pub record: Option<PathBuf>,
-    /// Truss joints published as /tf frames (comma-separated joint names).
-    /// Default: each post top (the highest joint of each vertical post) or,
-    /// for a mast, its tip.
+    /// Truss joints published as /tf frames (comma-separated joint names;
+    /// parameter `tf_frames`). Default: every post top (joints named `*_t`,
+    /// as the ring generators name them) or, with none, the highest joint of
+    /// the deployed geometry (a mast's tip).
     #[arg(long, value_delimiter = ',', value_name = "JOINT,...")]
     pub tf_frames: Option<Vec<String>>,
     /// The contents of the command line's `--ros-args` sections (rcl's syntax;
