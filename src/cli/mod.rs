@@ -57,7 +57,9 @@ enum Cmd {
     /// Run the ROS 2 node: step in real time, publish over DDS (see launch_notes.md).
     #[cfg(feature = "ros")]
     #[command(
-        after_help = "Example: truss-deploy node models/pantograph_mast.toml --rate 50 --record live.mcap"
+        after_help = "ROS 2 arguments, after the others: --ros-args [-r FROM:=TO]... [-p NAME:=VALUE]... \
+                      [--params-file FILE]... [--log-level LEVEL] [--] (rcl's syntax; launch_notes.md)\n\n\
+                      Example: truss-deploy node models/pantograph_mast.toml --rate 50 --record live.mcap"
     )]
     Node(crate::node::NodeArgs),
     /// Drive a running node: ease the cable tension as deploy_fraction nears 1
@@ -303,20 +305,38 @@ impl Failure {
 }
 
 pub fn main() -> i32 {
-    let cli = match Cli::try_parse() {
+    // `--ros-args ... [--]` sections (as launch_ros passes them) are the node's.
+    #[cfg(feature = "ros")]
+    let (argv, ros_args) = crate::node::rosargs::split_argv(std::env::args_os());
+    #[cfg(not(feature = "ros"))]
+    let (argv, ros_args): (Vec<std::ffi::OsString>, Vec<std::ffi::OsString>) =
+        (std::env::args_os().collect(), Vec::new());
+    let cli = match Cli::try_parse_from(argv) {
         Ok(c) => c,
         Err(e) => {
             let _ = e.print();
             return if e.use_stderr() { 2 } else { 0 };
         }
     };
+    #[cfg(feature = "ros")]
+    let is_node = matches!(cli.cmd, Cmd::Node(_));
+    #[cfg(not(feature = "ros"))]
+    let is_node = false;
+    if !ros_args.is_empty() && !is_node {
+        let _ = writeln!(
+            std::io::stderr(),
+            "error: --ros-args belongs to `truss-deploy node`"
+        );
+        return 2;
+    }
     let result = match cli.cmd {
         Cmd::Simulate(a) => simulate::run(a),
         Cmd::Analyze(a) => analyze(a),
         Cmd::Generate(a) => generate_cmd(a),
         Cmd::Bench(a) => bench(a),
         #[cfg(feature = "ros")]
-        Cmd::Node(a) => node_outputs(&a).and_then(|_| {
+        Cmd::Node(mut a) => node_outputs(&a).and_then(|_| {
+            a.ros_args = ros_args;
             crate::node::run_blocking(a)
                 .map(|_| ())
                 .map_err(|e| match e {

@@ -153,9 +153,79 @@ impl CommandBook {
     }
 }
 
+/// A tick's merged commands: (cable, tension) in arrival order, the first
+/// command's source stamp (ns since the Unix epoch, 0 if none) and take time.
+pub type Taken = (Vec<(usize, f64)>, i64, Instant);
+
+/// The valid commands taken in one tick, merged in arrival order: a later
+/// command's tension for a cable replaces an earlier one's, and cables no
+/// command names keep theirs (two partial commands for different cables both
+/// apply). Keeps the source stamp and take time of the first, for `--timing`.
+#[derive(Debug, Default)]
+pub struct Pending {
+    tensions: Vec<(usize, f64)>,
+    first: Option<(i64, Instant)>,
+}
+
+impl Pending {
+    pub fn add(&mut self, tensions: Vec<(usize, f64)>, src_ns: i64, taken: Instant) {
+        self.tensions.extend(tensions);
+        self.first.get_or_insert((src_ns, taken));
+    }
+
+    /// (cable, tension) in arrival order, to be applied in that order, with
+    /// the first command's source stamp and take time; None if nothing came.
+    pub fn take(&mut self) -> Option<Taken> {
+        let (src, taken) = self.first.take()?;
+        Some((std::mem::take(&mut self.tensions), src, taken))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Two partial commands for the sail's two cables taken in one tick both
+    /// apply, with a third one for the first cable overriding the first.
+    #[test]
+    fn partial_commands_in_one_tick_merge_in_order() {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/models/sail_array.toml");
+        let model = crate::model::load(std::path::Path::new(path))
+            .unwrap()
+            .model;
+        let mut sim =
+            crate::solver::Simulator::new(model, crate::solver::Options::default()).unwrap();
+        let mut book = CommandBook::default();
+        let mut pending = Pending::default();
+        let t0 = Instant::now();
+        for (k, (name, t)) in [("drive_A", 3.0), ("drive_B", 4.0), ("drive_A", 5.0)]
+            .into_iter()
+            .enumerate()
+        {
+            let cmd = CableForceCommand {
+                names: vec![name.into()],
+                tensions_n: vec![t],
+            };
+            let (ok, log) = book.check(&cmd, sim.model());
+            assert!(log.is_none());
+            pending.add(ok.unwrap(), 100 + k as i64, t0);
+        }
+        let (merged, src, _) = pending.take().unwrap();
+        assert_eq!(src, 100, "the first command's stamp");
+        for (c, t) in merged {
+            sim.set_cable_tension(c, t).unwrap();
+        }
+        let m = sim.model();
+        let (a, b) = (
+            m.cable_index("drive_A").unwrap(),
+            m.cable_index("drive_B").unwrap(),
+        );
+        let cmd = &sim.state().cable_tension_cmd_n;
+        assert_eq!(cmd[a], 5.0, "the later command for drive_A wins");
+        assert_eq!(cmd[b], 4.0, "drive_B's partial command applies too");
+        assert!(pending.take().is_none(), "taken once");
+        assert_eq!(book.accepted, 3);
+    }
 
     /// 10,000 undecodable samples in one second give one log line; the next
     /// one after the period gives a second line that counts those in between.

@@ -1,14 +1,22 @@
 //! The ROS 2 node (feature `ros`): steps the [`Simulator`] in real time and
-//! publishes over DDS with ros2-client on a tokio current_thread runtime.
+//! publishes over DDS with ros2-client on a tokio current_thread runtime. Its
+//! settings are ROS parameters ([`params`], served by [`param_services`]),
+//! set from flags and `--ros-args` ([`rosargs`]); its log goes to /rosout
+//! ([`log`]).
 //! Topics, types and QoS follow ../shared/DESIGN.md "ROS 2 interface"; see
 //! launch_notes.md for running it next to a ROS 2 installation.
 
 pub mod commands;
 pub mod controller;
+pub mod log;
 pub mod msgs;
+pub mod param_services;
+pub mod params;
 pub mod publish;
 pub mod record;
+pub mod rosargs;
 pub mod services;
+pub mod sim_action;
 
 #[cfg(all(feature = "humble", feature = "jazzy"))]
 compile_error!(
@@ -24,14 +32,18 @@ compile_error!(
 use crate::solver::{Options, Simulator};
 use clap::{Args, ValueEnum};
 use commands::CommandBook;
+use log::node_log;
 use msgs::*;
+use params::Params;
 use ros2_client::dds::rustdds::DomainParticipantBuilder;
 use ros2_client::qos::{Durability, History, WhenFull};
 use ros2_client::{
     Context, MessageTypeName, Name, Node, NodeName, NodeOptions, Publisher, QosProfile,
     ServiceMapping, Subscription,
 };
+use rosargs::{LogLevel, ParamValue, RosArgs};
 use services::{Control, Services};
+use std::ffi::OsString;
 use std::net::Ipv4Addr;
 use std::path::PathBuf;
 use std::time::{Duration, Instant, SystemTime, UNIX_EPOCH};
@@ -68,17 +80,20 @@ pub enum Mapping {
 pub struct NodeArgs {
     /// Model file (TOML).
     pub model: PathBuf,
-    /// Publish rate of /joint_states, /truss/state and /clock (Hz). Default: one
-    /// publication per simulation step at the chosen --rtf, at most 100 Hz.
+    /// Publish rate of /joint_states, /truss/state, /clock and /tf (Hz);
+    /// parameter `rate_hz`. Default: one publication per simulation step at
+    /// the chosen real-time factor, at most 100 Hz.
     #[arg(long, allow_negative_numbers = true)]
     pub rate: Option<f64>,
-    /// Real-time factor: simulated seconds per wall-clock second.
+    /// Real-time factor: simulated seconds per wall-clock second (parameter `rtf`).
     #[arg(long, default_value_t = 1.0, allow_negative_numbers = true)]
     pub rtf: f64,
-    /// Node namespace; topics and services are resolved in it (/clock stays global).
+    /// Node namespace; topics and services are resolved in it (/clock stays
+    /// global). `--ros-args -r __ns:=/NS` overrides it.
     #[arg(long, default_value = "/")]
     pub namespace: String,
-    /// Restrict RustDDS to 127.0.0.1 (also: env TRUSS_DDS_LOOPBACK=1).
+    /// Restrict RustDDS to 127.0.0.1 (also: ROS_LOCALHOST_ONLY=1,
+    /// ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST or OFF, TRUSS_DDS_LOOPBACK=1).
     #[arg(long)]
     pub loopback: bool,
     /// Stop by itself after this many wall-clock seconds.
@@ -113,6 +128,16 @@ pub struct NodeArgs {
     /// chunk is closed every second so that a killed node leaves a readable file.
     #[arg(long, value_name = "FILE.mcap")]
     pub record: Option<PathBuf>,
+    /// Truss joints published as /tf frames (comma-separated joint names;
+    /// parameter `tf_frames`). Default: every post top (joints named `*_t`,
+    /// as the ring generators name them) or, with none, the highest joint of
+    /// the deployed geometry (a mast's tip).
+    #[arg(long, value_delimiter = ',', value_name = "JOINT,...")]
+    pub tf_frames: Option<Vec<String>>,
+    /// The contents of the command line's `--ros-args` sections (rcl's syntax;
+    /// see [`rosargs`]), set by the command-line front end.
+    #[arg(skip)]
+    pub ros_args: Vec<OsString>,
 }
 
 /// What a run did, for the exit message and tests.
@@ -140,18 +165,35 @@ pub fn domain_id_from_env() -> Result<u16, String> {
     }
 }
 
-pub fn loopback_from_env() -> bool {
-    matches!(
-        std::env::var("TRUSS_DDS_LOOPBACK").as_deref(),
-        Ok("1") | Ok("true")
-    )
+/// Whether the environment keeps DDS on 127.0.0.1: ROS_LOCALHOST_ONLY=1
+/// (Humble), ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST (Jazzy; OFF, "no
+/// discovery beyond the process", is kept to the host, the nearest RustDDS
+/// offers), or this program's TRUSS_DDS_LOOPBACK=1.
+pub fn loopback_from_env() -> Result<bool, String> {
+    let var = |n: &str| std::env::var(n).ok().map(|v| v.trim().to_string());
+    let truss = matches!(var("TRUSS_DDS_LOOPBACK").as_deref(), Some("1" | "true"));
+    let localhost_only = match var("ROS_LOCALHOST_ONLY").as_deref() {
+        None | Some("" | "0") => false,
+        Some("1") => true,
+        Some(v) => return Err(format!("ROS_LOCALHOST_ONLY `{v}` must be 0 or 1")),
+    };
+    let range = match var("ROS_AUTOMATIC_DISCOVERY_RANGE").as_deref() {
+        None | Some("" | "SUBNET" | "SYSTEM_DEFAULT") => false,
+        Some("LOCALHOST" | "OFF") => true,
+        Some(v) => {
+            return Err(format!(
+            "ROS_AUTOMATIC_DISCOVERY_RANGE `{v}` must be SUBNET, LOCALHOST, OFF or SYSTEM_DEFAULT"
+        ))
+        }
+    };
+    Ok(truss || localhost_only || range)
 }
 
 /// A ros2-client context on ROS_DOMAIN_ID, optionally on 127.0.0.1 only.
 pub fn make_context(loopback: bool) -> Result<Context, String> {
     let domain = domain_id_from_env()?;
     let mut b = DomainParticipantBuilder::new(domain);
-    if loopback || loopback_from_env() {
+    if loopback || loopback_from_env()? {
         b = b.with_only_networks([Ipv4Addr::LOCALHOST]);
     }
     let dp = b
@@ -174,19 +216,56 @@ pub fn normalize_namespace(ns: &str) -> Result<String, String> {
     Ok(format!("/{}", parts.join("/")))
 }
 
-/// `ns` joined with a relative sub-namespace ("" for none).
-pub fn sub_ns(ns: &str, sub: &str) -> String {
-    match (ns == "/", sub.is_empty()) {
-        (true, true) => "/".into(),
-        (true, false) => format!("/{sub}"),
-        (false, true) => ns.into(),
-        (false, false) => format!("{ns}/{sub}"),
+/// Topic and service names of a node: resolved in its namespace, then
+/// remapped by the `-r FROM:=TO` rules that apply to it (the first that
+/// matches, as rcl).
+#[derive(Clone, Debug)]
+pub struct Naming {
+    pub ns: String,
+    pub node: String,
+    remaps: Vec<(String, String)>,
+}
+
+impl Naming {
+    pub fn new(ns: &str, node: &str, remaps: Vec<(String, String)>) -> Naming {
+        Naming {
+            ns: ns.to_string(),
+            node: node.to_string(),
+            remaps,
+        }
+    }
+
+    /// Names in namespace `ns`, no remapping.
+    pub fn plain(ns: &str) -> Naming {
+        Naming::new(ns, "", Vec::new())
+    }
+
+    /// The absolute name of `name` (relative to the namespace, or absolute), remapped.
+    pub fn full(&self, name: &str) -> Result<String, String> {
+        let r = rosargs::resolve(name, &self.ns, &self.node)?;
+        Ok(match self.remaps.iter().find(|(from, _)| *from == r) {
+            Some((_, to)) => to.clone(),
+            None => r,
+        })
+    }
+
+    /// [`Self::full`] as a ros2-client [`Name`].
+    pub fn name(&self, name: &str) -> Result<Name, String> {
+        let full = self.full(name)?;
+        let (ns, base) = full.rsplit_once('/').unwrap_or(("", &full));
+        Name::new(if ns.is_empty() { "/" } else { ns }, base)
+            .map_err(|e| format!("name {full}: {e:?}"))
     }
 }
 
+/// `sub/base` resolved in `ns` (no remapping).
 pub fn topic_name(ns: &str, sub: &str, base: &str) -> Result<Name, String> {
-    let n = sub_ns(ns, sub);
-    Name::new(&n, base).map_err(|e| format!("topic name {n}/{base}: {e:?}"))
+    let rel = if sub.is_empty() {
+        base.to_string()
+    } else {
+        format!("{sub}/{base}")
+    };
+    Naming::plain(ns).name(&rel)
 }
 
 /// QoS profiles of DESIGN.md "ROS 2 interface".
@@ -212,6 +291,18 @@ pub mod qos {
             .reliability_best_effort()
             .durability(Durability::Volatile)
             .history(History::KeepLast { depth: 1 })
+    }
+    /// reliable, volatile, keep last 100 (/tf, as tf2's TransformBroadcaster).
+    pub fn tf() -> QosProfile {
+        QosProfile::publisher_default()
+            .reliability_reliable(WhenFull::DEFAULT)
+            .durability(Durability::Volatile)
+            .history(History::KeepLast { depth: 100 })
+    }
+    /// reliable, transient local, keep last 1 (/tf_static, as tf2's
+    /// StaticTransformBroadcaster).
+    pub fn tf_static() -> QosProfile {
+        latched()
     }
     /// reliable, volatile (/truss/markers); keep last 1 since only the newest matters.
     pub fn markers() -> QosProfile {
@@ -261,19 +352,28 @@ struct Endpoints {
     /// None with --no-clock.
     clock: Option<Publisher<Clock>>,
     markers: publish::MarkerPub,
+    tf: Publisher<TFMessage>,
+    tf_static: Publisher<TFMessage>,
     cmd: Subscription<CableForceCommand>,
     srv: Services,
+    params_srv: param_services::ParamServices,
+    action: sim_action::SimulateSteps,
 }
 
-fn create_endpoints(node: &mut Node, ns: &str, a: &NodeArgs) -> Result<Endpoints, String> {
+fn create_endpoints(
+    node: &mut Node,
+    names: &Naming,
+    a: &NodeArgs,
+    p: &Params,
+    events_topic: &ros2_client::dds::rustdds::Topic,
+) -> Result<Endpoints, String> {
     let e = |what: &str, err: &dyn std::fmt::Debug| format!("create {what}: {err:?}");
-    // /clock first: the spinner creates its own rt/clock reader (see launch_notes.md).
-    let clock = if a.no_clock {
+    let clock = if !p.boolean(params::PUBLISH_CLOCK) {
         None
     } else {
         let clock_t = node
             .create_topic(
-                &Name::new("/", "clock").map_err(|x| e("clock", &x))?,
+                &names.name("/clock")?,
                 MessageTypeName::new("rosgraph_msgs", "Clock"),
                 &qos::clock(),
             )
@@ -285,7 +385,7 @@ fn create_endpoints(node: &mut Node, ns: &str, a: &NodeArgs) -> Result<Endpoints
     };
     let js_t = node
         .create_topic(
-            &topic_name(ns, "", "joint_states")?,
+            &names.name("joint_states")?,
             MessageTypeName::new("sensor_msgs", "JointState"),
             &qos::reliable10(),
         )
@@ -295,7 +395,7 @@ fn create_endpoints(node: &mut Node, ns: &str, a: &NodeArgs) -> Result<Endpoints
         .map_err(|x| e("joint_states", &x))?;
     let st_t = node
         .create_topic(
-            &topic_name(ns, "truss", "state")?,
+            &names.name("truss/state")?,
             MessageTypeName::new("truss_deploy", "TrussState"),
             &qos::reliable10(),
         )
@@ -305,7 +405,7 @@ fn create_endpoints(node: &mut Node, ns: &str, a: &NodeArgs) -> Result<Endpoints
         .map_err(|x| e("state", &x))?;
     let lock_t = node
         .create_topic(
-            &topic_name(ns, "truss", "lock_status")?,
+            &names.name("truss/lock_status")?,
             MessageTypeName::new("truss_deploy", "LockStatus"),
             &qos::latched(),
         )
@@ -313,11 +413,30 @@ fn create_endpoints(node: &mut Node, ns: &str, a: &NodeArgs) -> Result<Endpoints
     let lock = node
         .create_publisher::<LockStatus>(&lock_t, None)
         .map_err(|x| e("lock_status", &x))?;
-    let markers =
-        publish::MarkerPub::new(node, &topic_name(ns, "truss", "markers")?, a.markers_for)?;
+    let markers = publish::MarkerPub::new(node, &names.name("truss/markers")?, a.markers_for)?;
+    let tf_t = node
+        .create_topic(
+            &names.name("/tf")?,
+            MessageTypeName::new("tf2_msgs", "TFMessage"),
+            &qos::tf(),
+        )
+        .map_err(|x| e("tf", &x))?;
+    let tf = node
+        .create_publisher::<TFMessage>(&tf_t, None)
+        .map_err(|x| e("tf", &x))?;
+    let tf_static_t = node
+        .create_topic(
+            &names.name("/tf_static")?,
+            MessageTypeName::new("tf2_msgs", "TFMessage"),
+            &qos::tf_static(),
+        )
+        .map_err(|x| e("tf_static", &x))?;
+    let tf_static = node
+        .create_publisher::<TFMessage>(&tf_static_t, None)
+        .map_err(|x| e("tf_static", &x))?;
     let cmd_t = node
         .create_topic(
-            &topic_name(ns, "truss", "cable_force_cmd")?,
+            &names.name("truss/cable_force_cmd")?,
             MessageTypeName::new("truss_deploy", "CableForceCommand"),
             &qos::reliable10(),
         )
@@ -325,15 +444,26 @@ fn create_endpoints(node: &mut Node, ns: &str, a: &NodeArgs) -> Result<Endpoints
     let cmd = node
         .create_subscription::<CableForceCommand>(&cmd_t, None)
         .map_err(|x| e("cable_force_cmd", &x))?;
-    let srv = Services::new(node, ns, forced_mapping(a.service_mapping))?;
+    let srv = Services::new(node, names, forced_mapping(a.service_mapping))?;
+    let params_srv = param_services::ParamServices::new(
+        node,
+        names,
+        forced_mapping(a.service_mapping),
+        events_topic,
+    )?;
+    let action = sim_action::SimulateSteps::new(node, names, forced_mapping(a.service_mapping))?;
     Ok(Endpoints {
         js,
         state,
         lock,
         clock,
         markers,
+        tf,
+        tf_static,
         cmd,
         srv,
+        params_srv,
+        action,
     })
 }
 
@@ -348,8 +478,6 @@ struct Timing {
 const MAX_TIMING_RECORDS: usize = 2_000_000;
 /// Longest `--max-wall-s`: a year.
 const MAX_WALL_S: f64 = 3.2e7;
-/// Longest `--lock-period-s`: an hour.
-const MAX_LOCK_PERIOD_S: f64 = 3600.0;
 const MAX_CMDS_PER_WAKE: usize = 100_000;
 const MAX_CATCHUP_STEPS: usize = 50;
 
@@ -360,17 +488,93 @@ fn unix_now_ns() -> i64 {
         .unwrap_or(0)
 }
 
+/// The node's parameters at start: the flags' values, then the `--ros-args`
+/// overrides; `ignored` lists params-file entries for names it does not have.
+/// The model comes from the `model` parameter, and [`Self::complete`] gives
+/// the defaults that depend on it (rate, /tf joints) unless they were given.
+struct StartParams {
+    params: Params,
+    ignored: Vec<String>,
+    rate_given: bool,
+    tf_frames_given: bool,
+}
+
+/// Start value of `rate_hz` until the model gives the default.
+const RATE_HZ_UNTIL_MODEL: f64 = 20.0;
+
+fn start_params(a: &NodeArgs, ros: &RosArgs, fqn: &str) -> Result<StartParams, String> {
+    use params::*;
+    let start = vec![
+        (RTF, ParamValue::Double(a.rtf)),
+        (
+            RATE_HZ,
+            ParamValue::Double(a.rate.unwrap_or(RATE_HZ_UNTIL_MODEL)),
+        ),
+        (MARKER_RATE_HZ, ParamValue::Double(5.0)),
+        (LOCK_PERIOD_S, ParamValue::Double(a.lock_period_s)),
+        (MODEL, ParamValue::Str(a.model.display().to_string())),
+        (FRAME_ID, ParamValue::Str(a.frame_id.clone())),
+        (PARENT_FRAME_ID, ParamValue::Str("world".into())),
+        (PUBLISH_CLOCK, ParamValue::Bool(!a.no_clock)),
+        (USE_SIM_TIME, ParamValue::Bool(false)),
+        (
+            TF_FRAMES,
+            ParamValue::StrArray(a.tf_frames.clone().unwrap_or_default()),
+        ),
+    ];
+    let mut params = Params::new(start)?;
+    let ignored = params.apply_overrides(ros, fqn)?;
+    let given = |name: &str| ros.params_for(fqn).any(|p| p.name == name);
+    Ok(StartParams {
+        params,
+        ignored,
+        rate_given: a.rate.is_some() || given(RATE_HZ),
+        tf_frames_given: a.tf_frames.is_some() || given(TF_FRAMES),
+    })
+}
+
+impl StartParams {
+    /// The defaults that depend on the model: one publication per step at the
+    /// real-time factor (at most 100 Hz), and the /tf joints.
+    fn complete(&mut self, dt_s: f64, tf_default: Vec<String>) -> Result<(), String> {
+        use params::*;
+        if !self.rate_given {
+            let r = (self.params.f64(RTF) / dt_s).clamp(1e-2, 100.0);
+            self.params.set_start(RATE_HZ, ParamValue::Double(r))?;
+        }
+        if !self.tf_frames_given {
+            self.params
+                .set_start(TF_FRAMES, ParamValue::StrArray(tf_default))?;
+        }
+        Ok(())
+    }
+}
+
+/// The settings the main loop reads, from the parameters (again after each set).
+struct Live {
+    rtf: f64,
+    rate_hz: f64,
+    pub_period: Duration,
+    lock_period: Duration,
+    marker_period: Duration,
+}
+
+impl Live {
+    fn from(p: &Params) -> Live {
+        let rate_hz = p.f64(params::RATE_HZ);
+        Live {
+            rtf: p.f64(params::RTF),
+            rate_hz,
+            pub_period: Duration::from_secs_f64(1.0 / rate_hz),
+            lock_period: Duration::from_secs_f64(p.f64(params::LOCK_PERIOD_S)),
+            marker_period: Duration::from_secs_f64(1.0 / p.f64(params::MARKER_RATE_HZ)),
+        }
+    }
+}
+
 /// Runs the node until SIGINT/SIGTERM or --max-wall-s.
 pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
     let input = NodeError::Input;
-    if !(a.rtf.is_finite() && a.rtf > 0.0 && a.rtf <= 1000.0) {
-        return Err(input(format!("--rtf {} must be in (0, 1000]", a.rtf)));
-    }
-    if let Some(r) = a.rate {
-        if !(r.is_finite() && r > 0.0 && r <= 1000.0) {
-            return Err(input(format!("--rate {r} must be in (0, 1000] Hz")));
-        }
-    }
     // (bounded so that Duration and Instant arithmetic cannot overflow)
     if let Some(m) = a.max_wall_s {
         if !(m.is_finite() && m > 0.0 && m <= MAX_WALL_S) {
@@ -379,56 +583,87 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
             )));
         }
     }
-    if !(a.lock_period_s.is_finite()
-        && a.lock_period_s > 0.0
-        && a.lock_period_s <= MAX_LOCK_PERIOD_S)
-    {
-        return Err(input(format!(
-            "--lock-period-s {} must be in (0, {MAX_LOCK_PERIOD_S}] s",
-            a.lock_period_s
-        )));
-    }
-    let lock_period = Duration::from_secs_f64(a.lock_period_s);
-    let ns = normalize_namespace(&a.namespace).map_err(input)?;
-    let loaded = crate::model::load(&a.model).map_err(|e| input(e.to_string()))?;
+    let ros = rosargs::parse(&a.ros_args).map_err(input)?;
+    let node_name = ros.node_name("truss_deploy").map_err(input)?;
+    let ns = normalize_namespace(&ros.namespace(&node_name).unwrap_or(a.namespace.clone()))
+        .map_err(input)?;
+    let names = Naming::new(
+        &ns,
+        &node_name,
+        ros.name_remaps(&node_name, &ns).map_err(input)?,
+    );
+    let fqn = names.full("~").map_err(input)?;
+    log::init(
+        &log::logger_name(&fqn),
+        ros.log_level.unwrap_or(LogLevel::Info),
+    );
+    let mut par = start_params(&a, &ros, &fqn).map_err(input)?;
+    // (the model argument, or the `model` parameter set by --ros-args)
+    let model_path = PathBuf::from(par.params.string(params::MODEL));
+    let loaded = crate::model::load(&model_path).map_err(|e| input(e.to_string()))?;
     let checks = loaded.checks.clone();
     let mut sim = Simulator::new(loaded.model, Options::default())
-        .map_err(|e| input(format!("{}: {e}", a.model.display())))?;
+        .map_err(|e| input(format!("{}: {e}", model_path.display())))?;
     let dt = sim.model().dt_s;
-    let rate = a.rate.unwrap_or((a.rtf / dt).min(100.0));
-    let pub_period = Duration::from_secs_f64(1.0 / rate);
+    par.complete(dt, publish::default_tf_joints(sim.model()))
+        .map_err(input)?;
+    let tf_joints = publish::tf_joint_indices(sim.model(), par.params.strings(params::TF_FRAMES))
+        .map_err(input)?;
+    for p in &par.ignored {
+        node_log!(Warn, "{p}: no such parameter here; ignored");
+    }
     let mut view = publish::View::new(sim.model());
     view.checks = checks.clone();
     let mut rec = match &a.record {
-        Some(p) => Some(record::Recorder::create(p, &ns, a.markers_for).map_err(input)?),
+        Some(p) => Some(record::Recorder::create(p, &names, a.markers_for).map_err(input)?),
         None => None,
     };
     let mut rec_error: Option<String> = None;
     let mut next_flush = Instant::now() + Duration::from_secs(1);
 
-    let context = make_context(a.loopback).map_err(NodeError::Run)?;
+    let loopback = a.loopback || loopback_from_env().map_err(input)?;
+    let context = make_context(loopback).map_err(NodeError::Run)?;
     let mut node = context
         .new_node(
-            NodeName::new(&ns, "truss_deploy").map_err(|e| input(format!("node name: {e:?}")))?,
-            NodeOptions::new().enable_rosout(true),
+            NodeName::new(&ns, &node_name).map_err(|e| input(format!("node name: {e:?}")))?,
+            // the parameter services are the node's own (param_services.rs):
+            // ros2-client's answer in one service mapping only
+            NodeOptions::new()
+                .enable_rosout(true)
+                .start_parameter_services(false),
         )
         .map_err(|e| NodeError::Run(format!("node: {e:?}")))?;
-    let mut ep = create_endpoints(&mut node, &ns, &a).map_err(NodeError::Run)?;
+    log::attach(node.logging_handle());
+    let mut ep = create_endpoints(
+        &mut node,
+        &names,
+        &a,
+        &par.params,
+        &context.get_parameter_events_topic(),
+    )
+    .map_err(NodeError::Run)?;
     let spinner = node
         .spinner()
         .map_err(|e| NodeError::Run(format!("spinner: {e:?}")))?;
     let spin = tokio::spawn(spinner.spin());
-    say!(
-        "truss_deploy: node {} on ROS domain {}{}; model {} ({} joints, {} cables), dt {} s, rtf {}, publishing at {:.3} Hz",
+    let mut live = Live::from(&par.params);
+    let frame_id = par.params.string(params::FRAME_ID).to_string();
+    let _ = ep.tf_static.publish(publish::tf_mount(
+        par.params.string(params::PARENT_FRAME_ID),
+        &frame_id,
+        sim_stamp(0.0),
+    ));
+    node_log!(Info,
+        "node {} on ROS domain {}{}; model {} ({} joints, {} cables), dt {} s, rtf {}, publishing at {:.3} Hz",
         node.fully_qualified_name(),
         node.domain_id(),
-        if a.loopback || loopback_from_env() { " (loopback only)" } else { "" },
+        if loopback { " (loopback only)" } else { "" },
         sim.model().name,
         sim.model().n_joints(),
         sim.model().cables.len(),
         dt,
-        a.rtf,
-        rate
+        live.rtf,
+        live.rate_hz
     );
 
     let mut sigterm = tokio::signal::unix::signal(tokio::signal::unix::SignalKind::terminate())
@@ -442,9 +677,8 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
     let mut ctl = Control::new(a.paused, &sim, dt);
     let mut next_pub = start;
     let mut next_lock = start;
-    let marker_period = Duration::from_millis(200);
     let mut next_marker = start;
-    let mut pending: Option<(Vec<(usize, f64)>, i64, Instant)> = None;
+    let mut pending = commands::Pending::default();
     let mut awaiting_step: Option<(i64, Instant)> = None;
     let mut lock_dirty = true;
     let mut summary = RunSummary::default();
@@ -459,7 +693,7 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
         // 0. Periodic publications first, so that stepping does not delay them.
         if now >= next_pub {
             let stamp = sim_stamp(sim.state().t_s);
-            let (js, st) = view.state_messages(&mut sim, stamp, &a.frame_id);
+            let (js, st) = view.state_messages(&mut sim, stamp, &frame_id);
             if let Some(r) = rec.as_mut() {
                 let ns = record::stamp_ns(sim.state().t_s);
                 let w = r
@@ -473,31 +707,34 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
             }
             let _ = ep.js.publish(js);
             let _ = ep.state.publish(st);
+            let _ = ep
+                .tf
+                .publish(publish::tf_joints(&sim, &tf_joints, stamp, &frame_id));
             summary.publications += 1;
             if let Some(tm) = timing.as_mut() {
                 if tm.publish_at.len() < MAX_TIMING_RECORDS {
                     tm.publish_at.push(now);
                 }
             }
-            next_pub += pub_period;
-            if next_pub + pub_period < now {
-                next_pub = now + pub_period; // fell behind: skip, do not burst
+            next_pub += live.pub_period;
+            if next_pub + live.pub_period < now {
+                next_pub = now + live.pub_period; // fell behind: skip, do not burst
             }
         }
         // 1. Commands: drain everything pending (the reader keeps at most its
-        //    QoS depth), validate each, keep the last valid one.
+        //    QoS depth), validate each, merge the valid ones in order.
         for _ in 0..MAX_CMDS_PER_WAKE {
             let r = match ep.cmd.take() {
                 Ok(None) => break,
                 Ok(Some(x)) => Ok(x),
                 Err(e) => Err(e),
             };
-            if let Some(p) = book_command(r, &mut book, sim.model()) {
-                pending = Some(p);
+            if let Some((v, src, taken)) = book_command(r, &mut book, sim.model()) {
+                pending.add(v, src, taken);
             }
             lock_dirty = true;
         }
-        // The last valid command is in force from the next step on.
+        // The tick's valid commands are in force from the next step on.
         if let Some((cmd, src_ns, taken)) = pending.take() {
             for (c, t) in cmd {
                 // validated against the same model: cannot fail
@@ -514,12 +751,44 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
             lock_dirty = true;
         }
         summary.steps += ctl.steps - before;
+        let changed = ep.params_srv.serve(&node, &mut par.params, Instant::now());
+        if !changed.is_empty() {
+            // From now on at the new settings: simulated time continues from
+            // here at the new real-time factor.
+            let now = Instant::now();
+            ctl.anchor_wall = now;
+            ctl.anchor_sim = sim.state().t_s;
+            live = Live::from(&par.params);
+            next_pub = next_pub.min(now + live.pub_period);
+            next_lock = next_lock.min(now + live.lock_period);
+            next_marker = next_marker.min(now + live.marker_period);
+            let set: Vec<String> = changed
+                .iter()
+                .filter_map(|n| par.params.get(n).map(|v| format!("{n} = {v}")))
+                .collect();
+            node_log!(Info, "parameters set: {}", set.join(", "));
+        }
+        if ep.action.serve(&node, &mut ctl, &sim, Instant::now()) > 0 {
+            lock_dirty = true;
+        }
         // 3. Stepping in real time.
         let now = Instant::now();
-        let target = ctl.anchor_sim + a.rtf * now.duration_since(ctl.anchor_wall).as_secs_f64();
+        let target = ctl.anchor_sim + live.rtf * now.duration_since(ctl.anchor_wall).as_secs_f64();
+        if ep.action.executing() {
+            // a SimulateSteps goal steps the paused simulation at the same pace
+            let due = ((target - sim.state().t_s) / dt + 0.5).floor().max(0.0) as u64;
+            let taken = ep
+                .action
+                .advance(&mut ctl, &mut sim, due.min(MAX_CATCHUP_STEPS as u64));
+            summary.steps += taken;
+            if taken > 0 {
+                lock_dirty = true;
+            }
+        }
+        ep.action.finish(&node, now);
         let mut n = 0;
         while !sim.state().deployed
-            && !ctl.step_failed
+            && ctl.step_failure.is_none()
             && !ctl.paused()
             && sim.state().t_s + 0.5 * dt <= target
             && n < MAX_CATCHUP_STEPS
@@ -543,11 +812,9 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
                     }
                 }
                 Err(e) => {
-                    tell!(
-                        "truss_deploy: step failed at t = {:.4} s: {e}; holding the last state (reset to continue)",
-                        sim.state().t_s
-                    );
-                    ctl.step_failed = true;
+                    let why = format!("step failed at t = {:.4} s: {e}", sim.state().t_s);
+                    node_log!(Error, "{why}; holding the last state (reset to continue)");
+                    ctl.step_failure = Some(why);
                     lock_dirty = true;
                 }
             }
@@ -555,9 +822,10 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
             summary.steps += 1;
             if sim.state().deployed {
                 match crate::solver::checks::jammed(sim.model(), sim.state(), &checks) {
-                    Some(jam) => tell!("truss_deploy: {jam}; holding the final state"),
-                    None => say!(
-                        "truss_deploy: fully deployed at t = {:.3} s; holding the final state",
+                    Some(jam) => node_log!(Warn, "{jam}; holding the final state"),
+                    None => node_log!(
+                        Info,
+                        "fully deployed at t = {:.3} s; holding the final state",
                         sim.state().t_s
                     ),
                 }
@@ -574,7 +842,7 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
         let now = Instant::now();
         let stamp = sim_stamp(sim.state().t_s);
         if lock_dirty || now >= next_lock {
-            let msg = view.lock_status(&sim, &book, ctl.paused(), stamp, &a.frame_id);
+            let msg = view.lock_status(&sim, &book, ctl.paused(), stamp, &frame_id);
             // Publish on change (anything but the stamp) and at 1 Hz.
             let key = publish::lock_key(&msg);
             if now >= next_lock || last_lock_key.as_ref() != Some(&key) {
@@ -587,21 +855,21 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
                     record_failed(&mut rec, &mut rec_error, w);
                 }
                 if let Err(e) = ep.lock.publish(msg) {
-                    tell!("truss_deploy: lock_status publish: {e:?}");
+                    node_log!(Warn, "lock_status publish: {e:?}");
                 }
                 last_lock_key = Some(key);
-                next_lock = now + lock_period;
+                next_lock = now + live.lock_period;
             }
             lock_dirty = false;
         }
         if now >= next_marker {
-            let m = view.markers(&sim, stamp, &a.frame_id);
+            let m = view.markers(&sim, stamp, &frame_id);
             if let Some(r) = rec.as_mut() {
                 let w = r.write_markers(&m, record::stamp_ns(sim.state().t_s));
                 record_failed(&mut rec, &mut rec_error, w);
             }
             ep.markers.publish_built(m);
-            next_marker = now + marker_period;
+            next_marker = now + live.marker_period;
         }
         // Close the recording's chunk every second: a kill loses at most that.
         if now >= next_flush {
@@ -613,10 +881,13 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
         }
         // 5. Sleep until the next thing to do.
         let mut wake = next_pub.min(next_lock).min(next_marker);
-        if !ctl.paused() && !sim.state().deployed && !ctl.step_failed {
+        if (!ctl.paused() || ep.action.executing())
+            && !sim.state().deployed
+            && ctl.step_failure.is_none()
+        {
             let due = ctl.anchor_wall
                 + Duration::from_secs_f64(
-                    ((sim.state().t_s + dt - ctl.anchor_sim) / a.rtf).max(0.0),
+                    ((sim.state().t_s + dt - ctl.anchor_sim) / live.rtf).max(0.0),
                 );
             wake = wake.min(due);
         }
@@ -632,8 +903,8 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
             // keep-last-10 reader polled every 20 ms lost valid commands among
             // a flood), and in force sooner.
             r = ep.cmd.async_take() => {
-                if let Some(p) = book_command(r, &mut book, sim.model()) {
-                    pending = Some(p);
+                if let Some((v, src, taken)) = book_command(r, &mut book, sim.model()) {
+                    pending.add(v, src, taken);
                 }
                 lock_dirty = true;
                 continue;
@@ -663,7 +934,7 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
         &book,
         ctl.paused(),
         sim_stamp(sim.state().t_s),
-        &a.frame_id,
+        &frame_id,
     );
     if let Some(mut r) = rec.take() {
         let w = r
@@ -674,8 +945,9 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
             )
             .and_then(|_| r.finish());
         match w {
-            Ok(st) => say!(
-                "truss_deploy: recorded {} messages to {} ({} bytes)",
+            Ok(st) => node_log!(
+                Info,
+                "recorded {} messages to {} ({} bytes)",
                 st.messages,
                 st.path.display(),
                 st.bytes
@@ -685,20 +957,14 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
     }
     let _ = ep.lock.publish(last);
     if let (Some(path), Some(tm)) = (a.timing.as_ref(), timing.as_ref()) {
-        let report = timing_report(tm, pub_period.as_secs_f64(), rate, dt, &a);
+        let report = timing_report(tm, &live, dt);
         if let Err(e) = std::fs::write(path, serde_json::to_string_pretty(&report).unwrap() + "\n")
         {
-            tell!("truss_deploy: cannot write {}: {e}", path.display());
+            node_log!(Warn, "cannot write {}: {e}", path.display());
         }
     }
-    // Clean shutdown: endpoints, spinner, node, participant (peers see us leave).
-    drop(ep);
-    node.stop_spinner();
-    let _ = tokio::time::timeout(Duration::from_secs(3), spin).await;
-    drop(node);
-    drop(context);
-    say!(
-        "truss_deploy: stopped ({}) after {} steps, t = {:.3} s, deployed {}, commands accepted {} rejected {}, {} publications, {} overruns",
+    node_log!(Info,
+        "stopped ({}) after {} steps, t = {:.3} s, deployed {}, commands accepted {} rejected {}, {} publications, {} overruns",
         summary.stop_reason,
         summary.steps,
         summary.sim_time_s,
@@ -708,7 +974,14 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
         summary.publications,
         summary.overruns
     );
-    say!("truss_deploy: solver stats: {}", sim.solver_stats().line());
+    node_log!(Info, "solver stats: {}", sim.solver_stats().line());
+    // Clean shutdown: endpoints, spinner, node, participant (peers see us leave).
+    log::detach();
+    drop(ep);
+    node.stop_spinner();
+    let _ = tokio::time::timeout(Duration::from_secs(3), spin).await;
+    drop(node);
+    drop(context);
     match rec_error {
         Some(e) => Err(NodeError::Run(e)),
         None => Ok(summary),
@@ -723,7 +996,7 @@ fn record_failed(
     w: Result<(), String>,
 ) {
     if let Err(e) = w {
-        tell!("truss_deploy: {e}; recording stopped");
+        node_log!(Warn, "{e}; recording stopped");
         *rec = None;
         *err = Some(e);
     }
@@ -744,7 +1017,7 @@ fn book_command(
         Ok((cmd, info)) => {
             let (ok, log) = book.check(&cmd, model);
             if let Some(l) = log {
-                tell!("truss_deploy: {l}");
+                node_log!(Warn, "{l}");
             }
             let src = info.source_timestamp().map(|t| t.to_nanos()).unwrap_or(0);
             ok.map(|v| (v, src, Instant::now()))
@@ -755,7 +1028,7 @@ fn book_command(
                 other => format!("{other:?}"),
             };
             if let Some(l) = book.malformed(&why, Instant::now()) {
-                tell!("truss_deploy: {l}");
+                node_log!(Warn, "{l}");
             }
             None
         }
@@ -771,7 +1044,8 @@ fn percentile(v: &mut [f64], p: f64) -> f64 {
     v[i.min(v.len() - 1)]
 }
 
-fn timing_report(tm: &Timing, period: f64, rate: f64, dt: f64, a: &NodeArgs) -> serde_json::Value {
+fn timing_report(tm: &Timing, live: &Live, dt: f64) -> serde_json::Value {
+    let (period, rate) = (live.pub_period.as_secs_f64(), live.rate_hz);
     let mut jitter: Vec<f64> = tm
         .publish_at
         .windows(2)
@@ -786,9 +1060,9 @@ fn timing_report(tm: &Timing, period: f64, rate: f64, dt: f64, a: &NodeArgs) -> 
     let mut take: Vec<f64> = tm.cmd_latency_s.iter().map(|c| c.1).collect();
     serde_json::json!({
         "rate_hz": rate,
-        "rtf": a.rtf,
+        "rtf": live.rtf,
         "dt_s": dt,
-        "step_period_wall_s": dt / a.rtf,
+        "step_period_wall_s": dt / live.rtf,
         "publications": tm.publish_at.len(),
         "publish_period_jitter_s": {
             "p50": percentile(&mut jitter.clone(), 50.0),
@@ -849,6 +1123,19 @@ mod tests {
                 ros2_client::RosDistro::Jazzy
             );
         }
+        // QoS as tf2 and rcl make them (RustDDS does not announce History
+        // in discovery, so the wire tests cannot see the depths)
+        use ros2_client::ros2::policy;
+        assert_eq!(qos::tf().history, History::KeepLast { depth: 100 });
+        assert_eq!(qos::tf_static().history, History::KeepLast { depth: 1 });
+        let depth = match ros2_client::builtin_topics::rosout::QOS.history() {
+            Some(policy::History::KeepLast { depth }) => depth,
+            _ => -1,
+        };
+        assert_eq!(
+            depth, 1000,
+            "rcl_qos_profile_rosout_default (vendor/PATCHES.md, P5)"
+        );
         // --no-clock parses; the service mapping is detected unless forced
         let b = Cli::parse_from(["x", "m.toml", "--no-clock"]).node;
         assert!(b.no_clock && b.service_mapping.is_none());

@@ -74,6 +74,28 @@ pub struct Clock {
 }
 impl Message for Clock {}
 
+/// geometry_msgs/msg/Transform.
+#[derive(Debug, Clone, Copy, Default, Serialize, Deserialize, PartialEq)]
+pub struct Transform {
+    pub translation: Vector3,
+    pub rotation: Quaternion,
+}
+
+/// geometry_msgs/msg/TransformStamped.
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct TransformStamped {
+    pub header: Header,
+    pub child_frame_id: String,
+    pub transform: Transform,
+}
+
+/// tf2_msgs/msg/TFMessage (/tf and /tf_static).
+#[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+pub struct TFMessage {
+    pub transforms: Vec<TransformStamped>,
+}
+impl Message for TFMessage {}
+
 /// truss_deploy/msg/TrussState (msg/TrussState.msg).
 #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
 pub struct TrussState {
@@ -241,6 +263,101 @@ pub struct StepSimulationRequest {
 }
 impl Message for StepSimulationRequest {}
 
+/// The SimulateSteps action (simulation_interfaces/action/SimulateSteps.action)
+/// and action_msgs, as rcl_action puts them on the wire: a goal id is
+/// unique_identifier_msgs/UUID (uint8[16]).
+pub mod action {
+    use super::*;
+
+    pub type GoalId = [u8; 16];
+
+    /// SimulateSteps_SendGoal request: goal id, then the goal (uint64 steps).
+    #[derive(Debug, Clone, Default, Serialize, Deserialize, PartialEq)]
+    pub struct SendGoalRequest {
+        pub goal_id: GoalId,
+        pub steps: u64,
+    }
+    impl Message for SendGoalRequest {}
+
+    #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+    pub struct SendGoalResponse {
+        pub accepted: bool,
+        pub stamp: Time,
+    }
+    impl Message for SendGoalResponse {}
+
+    /// action_msgs/GoalInfo.
+    #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+    pub struct GoalInfo {
+        pub goal_id: GoalId,
+        pub stamp: Time,
+    }
+
+    /// action_msgs/srv/CancelGoal request.
+    #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+    pub struct CancelGoalRequest {
+        pub goal_info: GoalInfo,
+    }
+    impl Message for CancelGoalRequest {}
+
+    #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+    pub struct CancelGoalResponse {
+        pub return_code: i8,
+        pub goals_canceling: Vec<GoalInfo>,
+    }
+    impl Message for CancelGoalResponse {}
+    pub const CANCEL_ERROR_NONE: i8 = 0;
+    pub const CANCEL_ERROR_UNKNOWN_GOAL_ID: i8 = 2;
+    pub const CANCEL_ERROR_GOAL_TERMINATED: i8 = 3;
+
+    /// SimulateSteps_GetResult request.
+    #[derive(Debug, Clone, Default, Serialize, Deserialize, PartialEq)]
+    pub struct GetResultRequest {
+        pub goal_id: GoalId,
+    }
+    impl Message for GetResultRequest {}
+
+    /// SimulateSteps_GetResult response: the goal's status, then the result
+    /// (one simulation_interfaces/Result).
+    #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+    pub struct GetResultResponse {
+        pub status: i8,
+        pub result: SimResult,
+    }
+    impl Message for GetResultResponse {}
+
+    /// SimulateSteps_FeedbackMessage: goal id, then the feedback.
+    #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+    pub struct FeedbackMessage {
+        pub goal_id: GoalId,
+        pub completed_steps: u64,
+        pub remaining_steps: u64,
+    }
+    impl Message for FeedbackMessage {}
+
+    /// action_msgs/GoalStatus.
+    #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+    pub struct GoalStatus {
+        pub goal_info: GoalInfo,
+        pub status: i8,
+    }
+
+    /// action_msgs/GoalStatusArray.
+    #[derive(Debug, Clone, Serialize, Deserialize, PartialEq)]
+    pub struct GoalStatusArray {
+        pub status_list: Vec<GoalStatus>,
+    }
+    impl Message for GoalStatusArray {}
+
+    pub const STATUS_UNKNOWN: i8 = 0;
+    pub const STATUS_ACCEPTED: i8 = 1;
+    pub const STATUS_EXECUTING: i8 = 2;
+    pub const STATUS_CANCELING: i8 = 3;
+    pub const STATUS_SUCCEEDED: i8 = 4;
+    pub const STATUS_CANCELED: i8 = 5;
+    pub const STATUS_ABORTED: i8 = 6;
+}
+
 /// Constants of simulation_interfaces 2.x used by the node (checked against the
 /// .msg/.srv text by tests/node_msgs.rs).
 pub mod sim_if {
@@ -263,6 +380,7 @@ pub mod sim_if {
     pub const SIMULATION_STATE_PAUSE: u16 = 26;
     pub const STEP_SIMULATION_SINGLE: u16 = 31;
     pub const STEP_SIMULATION_MULTIPLE: u16 = 32;
+    pub const STEP_SIMULATION_ACTION: u16 = 33;
     /// (file, constant, value) for the test against the published text.
     pub const ALL: &[(&str, &str, i64)] = &[
         (
@@ -312,6 +430,11 @@ pub mod sim_if {
             "SimulatorFeatures.msg",
             "SIMULATION_STATE_PAUSE",
             SIMULATION_STATE_PAUSE as i64,
+        ),
+        (
+            "SimulatorFeatures.msg",
+            "STEP_SIMULATION_ACTION",
+            STEP_SIMULATION_ACTION as i64,
         ),
         (
             "SimulatorFeatures.msg",

@@ -174,8 +174,9 @@ impl View {
                     let n = self.least_work_failures.get() + 1;
                     self.least_work_failures.set(n);
                     if n == 1 {
-                        tell!(
-                            "warning: t = {} s: the least-work split of the member forces failed ({e}); \
+                        super::log::node_log!(
+                            Warn,
+                            "t = {} s: the least-work split of the member forces failed ({e}); \
                              /joint_states efforts are the solver's own split until it succeeds",
                             sim.state().t_s
                         );
@@ -384,6 +385,105 @@ impl MarkerPub {
                 })
                 .map_err(|_| ()),
         };
+    }
+}
+
+/// The joints `/tf` carries unless `--tf-frames` names others: every post top
+/// (a joint named `*_t`, as the ring generators name them) or, with none, the
+/// highest joint (greatest z of the reference geometry, else the initial one;
+/// the first of equals): a mast's tip.
+pub fn default_tf_joints(model: &Model) -> Vec<String> {
+    let tops: Vec<String> = model
+        .joints
+        .iter()
+        .filter(|j| j.name.ends_with("_t"))
+        .map(|j| j.name.clone())
+        .collect();
+    if !tops.is_empty() {
+        return tops;
+    }
+    let x = model.reference.as_ref().unwrap_or(&model.x0);
+    let mut best: Option<usize> = None;
+    for i in 0..model.joints.len() {
+        if best.is_none_or(|b| x[3 * i + 2] > x[3 * b + 2]) {
+            best = Some(i);
+        }
+    }
+    best.map(|i| vec![model.joints[i].name.clone()])
+        .unwrap_or_default()
+}
+
+/// The /tf frame of a truss joint: `FRAME/JOINT` (`truss/L4`).
+pub fn joint_frame(frame: &str, joint: &str) -> String {
+    format!("{frame}/{joint}")
+}
+
+/// The indices of the joints named for /tf, or an error naming the unknown one.
+pub fn tf_joint_indices(model: &Model, names: &[String]) -> Result<Vec<usize>, String> {
+    names
+        .iter()
+        .map(|n| {
+            model
+                .joints
+                .iter()
+                .position(|j| &j.name == n)
+                .ok_or_else(|| {
+                    let known: Vec<&str> = model.joints.iter().map(|j| j.name.as_str()).collect();
+                    format!(
+                        "--tf-frames / tf_frames: no joint `{n}` (joints: {})",
+                        known.join(", ")
+                    )
+                })
+        })
+        .collect()
+}
+
+/// /tf: each of `joints` as a frame, child of `frame` (the model frame), at
+/// its position, not rotated.
+pub fn tf_joints(sim: &Simulator, joints: &[usize], stamp: Time, frame: &str) -> TFMessage {
+    let (m, x) = (sim.model(), &sim.state().x);
+    TFMessage {
+        transforms: joints
+            .iter()
+            .map(|&j| TransformStamped {
+                header: Header {
+                    stamp,
+                    frame_id: frame.to_string(),
+                },
+                child_frame_id: joint_frame(frame, &m.joints[j].name),
+                transform: Transform {
+                    translation: Vector3 {
+                        x: x[3 * j],
+                        y: x[3 * j + 1],
+                        z: x[3 * j + 2],
+                    },
+                    rotation: Quaternion {
+                        w: 1.0,
+                        ..Default::default()
+                    },
+                },
+            })
+            .collect(),
+    }
+}
+
+/// /tf_static: the mount, placing the model frame `frame` in `parent` (identity).
+pub fn tf_mount(parent: &str, frame: &str, stamp: Time) -> TFMessage {
+    TFMessage {
+        transforms: vec![TransformStamped {
+            header: Header {
+                stamp,
+                frame_id: parent.to_string(),
+            },
+            child_frame_id: frame.to_string(),
+            transform: Transform {
+                rotation: Quaternion {
+                    w: 1.0,
+                    ..Default::default()
+                },
+                ..Default::default()
+            },
+        }],
     }
 }
 

@@ -220,44 +220,38 @@ pub enum Topic {
 }
 
 /// (type, topic under the node's namespace as (sub-namespace, base), QoS YAML)
-/// of every recorded topic, as `create_endpoints` offers them (DESIGN.md).
-fn topic_table(ns: &str) -> [(&'static str, String, String); 5] {
-    let name = |sub: &str, base: &str| {
-        let n = super::sub_ns(ns, sub);
-        if n == "/" {
-            format!("/{base}")
-        } else {
-            format!("{n}/{base}")
-        }
-    };
-    [
+/// of every recorded topic under its resolved (and remapped) name, as
+/// `create_endpoints` offers them (DESIGN.md).
+fn topic_table(names: &super::Naming) -> Result<[(&'static str, String, String); 5], String> {
+    let name = |n: &str| names.full(n);
+    Ok([
         (
             "sensor_msgs/msg/JointState",
-            name("", "joint_states"),
+            name("joint_states")?,
             qos_yaml(10, true, false),
         ),
         (
             "truss_deploy/msg/TrussState",
-            name("truss", "state"),
+            name("truss/state")?,
             qos_yaml(10, true, false),
         ),
         (
             "truss_deploy/msg/LockStatus",
-            name("truss", "lock_status"),
+            name("truss/lock_status")?,
             qos_yaml(1, true, true),
         ),
         (
             "visualization_msgs/msg/MarkerArray",
-            name("truss", "markers"),
+            name("truss/markers")?,
             qos_yaml(1, true, false),
         ),
         // /clock stays global whatever the namespace
         (
             "rosgraph_msgs/msg/Clock",
-            "/clock".into(),
+            name("/clock")?,
             qos_yaml(1, false, false),
         ),
-    ]
+    ])
 }
 
 /// Counts of a finished recording.
@@ -283,7 +277,7 @@ pub struct Recorder {
 impl Recorder {
     /// Creates `path` with the schemas and channels of the node's topics under
     /// namespace `ns` (normalized: "/" or "/a/b"), markers in layout `markers`.
-    pub fn create(path: &Path, ns: &str, markers: Distro) -> Result<Recorder, String> {
+    pub fn create(path: &Path, names: &super::Naming, markers: Distro) -> Result<Recorder, String> {
         let what = |e: &dyn std::fmt::Display| format!("recording {}: {e}", path.display());
         let file = File::create(path).map_err(|e| what(&e))?;
         let options = mcap::WriteOptions::new()
@@ -298,7 +292,7 @@ impl Recorder {
             .chunk_size(Some(256 * 1024));
         let mut writer = options.create(BufWriter::new(file)).map_err(|e| what(&e))?;
         let mut channels = [0u16; 5];
-        for (k, (ty, topic, qos)) in topic_table(ns).iter().enumerate() {
+        for (k, (ty, topic, qos)) in topic_table(names)?.iter().enumerate() {
             // "pkg/msg/Type" names the schema; definitions refer to "pkg/Type"
             let short = ty.replacen("/msg/", "/", 1);
             let text = schema_text(&short, markers)?;
@@ -437,7 +431,7 @@ impl OfflineRecording {
             }
         }
         let mut me = OfflineRecording {
-            rec: Recorder::create(path, "/", Distro::Jazzy)?,
+            rec: Recorder::create(path, &super::Naming::plain("/"), Distro::Jazzy)?,
             view: View::new(sim.model()),
             book: CommandBook::default(),
             frame: FRAME.to_string(),
@@ -618,7 +612,7 @@ mod tests {
     #[test]
     fn every_schema_is_complete() {
         for distro in [Distro::Jazzy, Distro::Humble, Distro::Galactic] {
-            for (ty, _, _) in topic_table("/") {
+            for (ty, _, _) in topic_table(&crate::node::Naming::plain("/")).unwrap() {
                 let short = ty.replacen("/msg/", "/", 1);
                 let text = schema_text(&short, distro).unwrap();
                 assert!(!text.is_empty());

@@ -7,10 +7,11 @@
 //! rmw_cyclonedds_cpp puts a 16-byte request header (client id, sequence
 //! number) before the request in the payload; rmw_fastrtps_cpp (ROS 2's
 //! default) and rmw_connextdds send the bare request and carry its id in the
-//! RTPS inline QoS (related_sample_identity). Every request type served here
-//! serializes to at most [`MAX_REQUEST_BYTES`] (< 16 even with Fast DDS's
-//! 4-byte padding), so the payload length tells the two apart
-//! ([`request_mapping`]).
+//! RTPS inline QoS (related_sample_identity). The vendor id opening the
+//! client's GUID tells Cyclone DDS and Fast DDS clients apart; for others,
+//! every simulation request type served here serializes to at most
+//! [`MAX_REQUEST_BYTES`] (< 16 even with Fast DDS's 4-byte padding), so the
+//! payload length does ([`request_mapping`]).
 //!
 //! A reply is held until the reply writer has matched a reader in the
 //! client's participant (at most [`REPLY_HOLD`]): a client may see the service
@@ -20,6 +21,7 @@
 //! [`Control`] is the run state (playing, paused, stopped) and what each
 //! request does to it; it is pure, so tests drive it without DDS.
 
+use super::log::node_log;
 use super::msgs::sim_if::*;
 use super::msgs::*;
 use crate::solver::Simulator;
@@ -40,15 +42,26 @@ const MAX_HELD_REPLIES: usize = 256;
 /// Most steps one StepSimulation call may ask for (the loop blocks meanwhile).
 pub const MAX_STEPS_PER_CALL: u64 = 10_000;
 
-/// The mapping of a request from its payload length (CDR bytes after the
+/// The first two bytes of a participant's GUID prefix in Cyclone DDS and in
+/// Fast DDS: their RTPS vendor ids (each writes its own there).
+pub const VENDOR_ECLIPSE_CYCLONE: [u8; 2] = [0x01, 0x10];
+pub const VENDOR_EPROSIMA_FASTDDS: [u8; 2] = [0x01, 0x0f];
+
+/// The mapping of a request. A client in a Cyclone DDS participant is
+/// rmw_cyclonedds' (Cyclone mapping), one in a Fast DDS participant
+/// rmw_fastrtps' (Enhanced), told by the vendor id opening the request
+/// writer's GUID. Others by the payload length (CDR bytes after the
 /// encapsulation header): a Cyclone-mapped request is at least the 16-byte
-/// header plus one byte; an Enhanced one is the bare request, at most
-/// [`MAX_REQUEST_BYTES`] plus 3 bytes of alignment padding.
-pub fn request_mapping(payload_len: usize) -> ServiceMapping {
-    if payload_len >= CYCLONE_HEADER_BYTES {
-        ServiceMapping::Cyclone
-    } else {
-        ServiceMapping::Enhanced
+/// header plus one byte; an Enhanced one of the simulation services is the
+/// bare request, at most [`MAX_REQUEST_BYTES`] plus 3 bytes of alignment
+/// padding. (The parameter services' requests are longer: their clients need
+/// the vendor rule.)
+pub fn request_mapping(payload_len: usize, client_guid: &[u8]) -> ServiceMapping {
+    match client_guid.get(..2) {
+        Some(v) if v == VENDOR_ECLIPSE_CYCLONE => ServiceMapping::Cyclone,
+        Some(v) if v == VENDOR_EPROSIMA_FASTDDS => ServiceMapping::Enhanced,
+        _ if payload_len >= CYCLONE_HEADER_BYTES => ServiceMapping::Cyclone,
+        _ => ServiceMapping::Enhanced,
     }
 }
 
@@ -60,12 +73,21 @@ struct Held<Resp> {
     deadline: Instant,
 }
 
+/// A request answered later (an action's get_result).
+struct Parked<Req> {
+    id: ros2_client::RmwRequestId,
+    req: Req,
+    mapping: ServiceMapping,
+    client: ros2_client::Gid,
+}
+
 /// One service server answering every client in its own mapping.
 pub struct Service<Req: Message, Resp: Message> {
     pub name: String,
     server: Server<Req, Resp>,
     forced: Option<ServiceMapping>,
     held: Vec<Held<Resp>>,
+    parked: Vec<Parked<Req>>,
     bad_request_logged: bool,
 }
 
@@ -91,6 +113,7 @@ impl<Req: Message + Clone + 'static, Resp: Message + 'static> Service<Req, Resp>
             server,
             forced,
             held: Vec::new(),
+            parked: Vec::new(),
             bad_request_logged: false,
         })
     }
@@ -102,16 +125,46 @@ impl<Req: Message + Clone + 'static, Resp: Message + 'static> Service<Req, Resp>
         now: Instant,
         mut handle: impl FnMut(Req) -> Resp,
     ) -> usize {
+        self.serve_or_park(node, now, |r| Some(handle(r.clone())))
+    }
+
+    /// As [`Self::serve`], but `handle` may answer None: the request waits
+    /// for [`Self::answer_parked`] (at most [`MAX_HELD_REPLIES`] wait; beyond
+    /// that a request is dropped, its client waiting in vain, and logged).
+    pub fn serve_or_park(
+        &mut self,
+        node: &Node,
+        now: Instant,
+        mut handle: impl FnMut(&Req) -> Option<Resp>,
+    ) -> usize {
         let forced = self.forced;
         let mut n = 0;
         for _ in 0..MAX_REQS_PER_WAKE {
-            let got = self.server.receive_request_any_mapping(|payload, _| {
-                forced.unwrap_or_else(|| request_mapping(payload.len()))
+            let got = self.server.receive_request_any_mapping(|payload, info| {
+                forced.unwrap_or_else(|| {
+                    request_mapping(payload.len(), info.publisher_gid().as_bytes())
+                })
             });
             match got {
                 Ok(Some((id, req, mapping, info))) => {
                     n += 1;
-                    let resp = handle(req);
+                    let Some(resp) = handle(&req) else {
+                        if self.parked.len() < MAX_HELD_REPLIES {
+                            self.parked.push(Parked {
+                                id,
+                                req,
+                                mapping,
+                                client: info.publisher_gid(),
+                            });
+                        } else {
+                            node_log!(
+                                Warn,
+                                "service {}: too many waiting requests; one dropped",
+                                self.name
+                            );
+                        }
+                        continue;
+                    };
                     self.held.push(Held {
                         id,
                         resp,
@@ -128,8 +181,8 @@ impl<Req: Message + Clone + 'static, Resp: Message + 'static> Service<Req, Resp>
                 Err(e) => {
                     // the reader has moved past it: read on
                     if !self.bad_request_logged {
-                        tell!(
-                            "truss_deploy: service {}: undecodable request skipped ({e:?}); further ones are not logged",
+                        node_log!(Warn,
+                            "service {}: undecodable request skipped ({e:?}); further ones are not logged",
                             self.name
                         );
                         self.bad_request_logged = true;
@@ -139,6 +192,32 @@ impl<Req: Message + Clone + 'static, Resp: Message + 'static> Service<Req, Resp>
         }
         self.flush(node, now);
         n
+    }
+
+    /// Answers the parked requests `f` has an answer for now.
+    pub fn answer_parked(
+        &mut self,
+        node: &Node,
+        now: Instant,
+        mut f: impl FnMut(&Req) -> Option<Resp>,
+    ) {
+        let mut k = 0;
+        while k < self.parked.len() {
+            match f(&self.parked[k].req) {
+                Some(resp) => {
+                    let p = self.parked.swap_remove(k);
+                    self.held.push(Held {
+                        id: p.id,
+                        resp,
+                        mapping: p.mapping,
+                        client: p.client,
+                        deadline: now + REPLY_HOLD,
+                    });
+                }
+                None => k += 1,
+            }
+        }
+        self.flush(node, now);
     }
 
     /// Sends the held replies whose client's reply reader has matched (or
@@ -152,8 +231,8 @@ impl<Req: Message + Clone + 'static, Resp: Message + 'static> Service<Req, Resp>
             let matched = node.writer_matched_participant(writer, client);
             if matched || now >= h.deadline {
                 if !matched {
-                    tell!(
-                        "truss_deploy: service {}: the client's reply reader did not match within {} s; replying anyway",
+                    node_log!(Warn,
+                        "service {}: the client's reply reader did not match within {} s; replying anyway",
                         self.name,
                         REPLY_HOLD.as_secs()
                     );
@@ -171,7 +250,7 @@ impl<Req: Message + Clone + 'static, Resp: Message + 'static> Service<Req, Resp>
             .server
             .send_response_with_mapping(h.id, h.resp, h.mapping)
         {
-            tell!("truss_deploy: service {} response: {e:?}", self.name);
+            node_log!(Warn, "service {} response: {e:?}", self.name);
         }
     }
 }
@@ -191,8 +270,8 @@ pub struct Control {
     /// Sim time target = anchor_sim + rtf * (now - anchor_wall).
     pub anchor_wall: Instant,
     pub anchor_sim: f64,
-    /// A step failed: hold the state until a reset.
-    pub step_failed: bool,
+    /// A step failed (why): hold the state until a reset.
+    pub step_failure: Option<String>,
     /// Steps taken by services (for the run summary).
     pub steps: u64,
     dt: f64,
@@ -217,7 +296,7 @@ impl Control {
             },
             anchor_wall: Instant::now(),
             anchor_sim: sim.state().t_s,
-            step_failed: false,
+            step_failure: None,
             steps: 0,
             dt,
         }
@@ -239,31 +318,29 @@ impl Control {
 
     fn do_reset(&mut self, sim: &mut Simulator) -> Result<(), String> {
         sim.reset().map_err(|e| format!("reset failed: {e}"))?;
-        self.step_failed = false;
+        self.step_failure = None;
         self.resync(sim);
         Ok(())
     }
 
     /// Steps `n` times while paused, stopping early at full deployment or a
     /// failed step; returns the steps taken and why it stopped early.
-    fn step_paused(&mut self, sim: &mut Simulator, n: u64) -> (u64, Option<String>) {
+    pub fn step_paused(&mut self, sim: &mut Simulator, n: u64) -> (u64, Option<String>) {
         let mut done = 0;
         while done < n {
             if sim.state().deployed {
                 return (done, Some("fully deployed: the state is held".into()));
             }
-            if self.step_failed {
+            if self.step_failure.is_some() {
                 return (
                     done,
                     Some("a step failed earlier: reset to continue".into()),
                 );
             }
             if let Err(e) = sim.step(self.dt) {
-                self.step_failed = true;
-                return (
-                    done,
-                    Some(format!("step failed at t = {:.4} s: {e}", sim.state().t_s)),
-                );
+                let why = format!("step failed at t = {:.4} s: {e}", sim.state().t_s);
+                self.step_failure = Some(why.clone());
+                return (done, Some(why));
             }
             done += 1;
             self.steps += 1;
@@ -314,30 +391,55 @@ impl Control {
                     SIMULATION_STATE_PAUSE,
                     STEP_SIMULATION_SINGLE,
                     STEP_SIMULATION_MULTIPLE,
+                    STEP_SIMULATION_ACTION,
                 ],
                 spawn_formats: Vec::new(),
                 custom_info: format!(
                     "truss-deploy {}: deployment of space deployable trusses; reset is whole \
-                     (time and state: SCOPE_DEFAULT or SCOPE_ALL); no entities, worlds or \
-                     SimulateSteps action",
+                     (time and state: SCOPE_DEFAULT or SCOPE_ALL); no entities or worlds; \
+                     the SimulateSteps action at /truss/simulate_steps steps at the real-time \
+                     factor",
                     env!("CARGO_PKG_VERSION")
                 ),
             },
         }
     }
 
-    pub fn state_msg(&self) -> GetSimulationStateResponse {
+    /// Why the simulation holds its state (time does not advance) although
+    /// it may be playing: a failed step (a failure result) or full deployment.
+    pub fn held(&self, sim: &Simulator) -> Option<(u8, String)> {
+        if let Some(why) = &self.step_failure {
+            Some((
+                RESULT_OPERATION_FAILED,
+                format!("{why}; holding the last state: reset to continue"),
+            ))
+        } else if sim.state().deployed {
+            Some((
+                RESULT_OK,
+                "fully deployed: holding the final state; reset to run again".into(),
+            ))
+        } else {
+            None
+        }
+    }
+
+    /// GetSimulationState. While the state is held (see [`Self::held`]) a
+    /// playing simulation is reported PAUSED, with the reason in the result.
+    pub fn state_msg(&self, sim: &Simulator) -> GetSimulationStateResponse {
+        let held = self.held(sim);
+        let (result, error_message) = held.clone().unwrap_or((RESULT_OK, String::new()));
         GetSimulationStateResponse {
             state: SimulationState {
                 state: match self.run {
+                    RunState::Playing if held.is_some() => STATE_PAUSED,
                     RunState::Playing => STATE_PLAYING,
                     RunState::Paused => STATE_PAUSED,
                     RunState::Stopped => STATE_STOPPED,
                 },
             },
             result: SimResult {
-                result: RESULT_OK,
-                error_message: String::new(),
+                result,
+                error_message,
             },
         }
     }
@@ -358,6 +460,11 @@ impl Control {
                 )
             }
         };
+        if want == RunState::Playing {
+            if let Some((_, why)) = self.held(sim) {
+                return result(RESULT_OPERATION_FAILED, format!("cannot play: {why}"));
+            }
+        }
         if want == now {
             return result(ALREADY_IN_TARGET_STATE, "already in the target state");
         }
@@ -435,9 +542,13 @@ pub struct Services {
 }
 
 impl Services {
-    /// Creates them under `<ns>/truss`.
-    pub fn new(node: &mut Node, ns: &str, forced: Option<ServiceMapping>) -> Result<Self, String> {
-        let name = |b: &str| super::topic_name(ns, "truss", b);
+    /// Creates them under `<ns>/truss` (remappable).
+    pub fn new(
+        node: &mut Node,
+        names: &super::Naming,
+        forced: Option<ServiceMapping>,
+    ) -> Result<Self, String> {
+        let name = |b: &str| names.name(&format!("truss/{b}"));
         let si = |t: &str| ServiceTypeName::new("simulation_interfaces", t);
         let mut trigger = Vec::new();
         for b in TRIGGERS {
@@ -496,7 +607,7 @@ impl Services {
             n += srv.serve(node, now, |_| ctl.trigger(TRIGGERS[k], sim));
         }
         n += self.features.serve(node, now, |_| ctl.features());
-        n += self.get_state.serve(node, now, |_| ctl.state_msg());
+        n += self.get_state.serve(node, now, |_| ctl.state_msg(sim));
         n += self
             .set_state
             .serve(node, now, |r| ctl.set_state(r.state.state, sim));
@@ -542,12 +653,19 @@ mod tests {
         for s in sizes {
             assert!(s <= MAX_REQUEST_BYTES, "{sizes:?}");
             let padded = s.div_ceil(4) * 4;
-            assert_eq!(request_mapping(padded), ServiceMapping::Enhanced);
+            assert_eq!(request_mapping(padded, &[0; 16]), ServiceMapping::Enhanced);
             assert_eq!(
-                request_mapping(CYCLONE_HEADER_BYTES + s),
+                request_mapping(CYCLONE_HEADER_BYTES + s, &[0; 16]),
                 ServiceMapping::Cyclone
             );
         }
+        // a parameter request is longer: the client's vendor decides
+        let mut cyclone = [0u8; 16];
+        cyclone[..2].copy_from_slice(&VENDOR_ECLIPSE_CYCLONE);
+        let mut fast = [0u8; 16];
+        fast[..2].copy_from_slice(&VENDOR_EPROSIMA_FASTDDS);
+        assert_eq!(request_mapping(40, &fast), ServiceMapping::Enhanced);
+        assert_eq!(request_mapping(4, &cyclone), ServiceMapping::Cyclone);
     }
 
     /// Pause, step, resume, stop and reset do what simulation_interfaces says,
@@ -557,7 +675,7 @@ mod tests {
         let mut sim = mast();
         let dt = sim.model().dt_s;
         let mut c = Control::new(false, &sim, dt);
-        assert_eq!(c.state_msg().state.state, STATE_PLAYING);
+        assert_eq!(c.state_msg(&sim).state.state, STATE_PLAYING);
         let r = c.step(1, &mut sim);
         assert_eq!(
             r.result.result, RESULT_OPERATION_FAILED,
@@ -581,7 +699,7 @@ mod tests {
             c.step(MAX_STEPS_PER_CALL + 1, &mut sim).result.result,
             RESULT_OPERATION_FAILED
         );
-        assert_eq!(c.state_msg().state.state, STATE_PAUSED);
+        assert_eq!(c.state_msg(&sim).state.state, STATE_PAUSED);
         assert_eq!(
             c.set_state(STATE_PLAYING, &mut sim).result.result,
             RESULT_OK
@@ -591,7 +709,7 @@ mod tests {
             c.set_state(STATE_STOPPED, &mut sim).result.result,
             RESULT_OK
         );
-        assert_eq!(c.state_msg().state.state, STATE_STOPPED);
+        assert_eq!(c.state_msg(&sim).state.state, STATE_STOPPED);
         assert_eq!(sim.state().t_s, 0.0, "stopped = paused and reset");
         assert!(c.paused());
         assert_eq!(
@@ -600,7 +718,7 @@ mod tests {
         );
         // step from stopped: allowed, ends paused
         assert_eq!(c.step(2, &mut sim).result.result, RESULT_OK);
-        assert_eq!(c.state_msg().state.state, STATE_PAUSED);
+        assert_eq!(c.state_msg(&sim).state.state, STATE_PAUSED);
         assert_eq!(
             c.reset(SCOPE_TIME, &mut sim).result.result,
             RESULT_FEATURE_UNSUPPORTED
@@ -609,7 +727,7 @@ mod tests {
         assert_eq!(c.reset(SCOPE_DEFAULT, &mut sim).result.result, RESULT_OK);
         assert_eq!(sim.state().t_s, 0.0);
         assert_eq!(
-            c.state_msg().state.state,
+            c.state_msg(&sim).state.state,
             STATE_PAUSED,
             "reset keeps the run state"
         );
@@ -621,5 +739,42 @@ mod tests {
         ] {
             assert!(f.contains(&x), "{f:?}");
         }
+    }
+
+    /// Held after a failed step or at full deployment, a playing simulation is
+    /// reported PAUSED with the reason, and PLAYING is refused until a reset.
+    #[test]
+    fn a_held_simulation_is_not_reported_playing() {
+        let mut sim = mast();
+        let dt = sim.model().dt_s;
+        let mut c = Control::new(false, &sim, dt);
+        c.step_failure = Some("step failed at t = 0.0000 s: test".into());
+        let m = c.state_msg(&sim);
+        assert_eq!(m.state.state, STATE_PAUSED);
+        assert_eq!(m.result.result, RESULT_OPERATION_FAILED);
+        assert!(m.result.error_message.contains("reset to continue"));
+        let r = c.set_state(STATE_PLAYING, &mut sim);
+        assert_eq!(
+            r.result.result, RESULT_OPERATION_FAILED,
+            "{}",
+            r.result.error_message
+        );
+        assert_eq!(c.reset(SCOPE_DEFAULT, &mut sim).result.result, RESULT_OK);
+        assert_eq!(
+            c.state_msg(&sim).state.state,
+            STATE_PLAYING,
+            "the reset clears it"
+        );
+        // deployment: the mast at its model tension deploys within 600 steps
+        for _ in 0..600 {
+            if sim.state().deployed {
+                break;
+            }
+            sim.step(dt).unwrap();
+        }
+        assert!(sim.state().deployed);
+        let m = c.state_msg(&sim);
+        assert_eq!((m.state.state, m.result.result), (STATE_PAUSED, RESULT_OK));
+        assert!(m.result.error_message.contains("fully deployed"));
     }
 }

@@ -1,9 +1,21 @@
 //! The ROS 2 node (feature `ros`): messages, DDS with ros2-client, the
-//! Cyclone DDS and Fast DDS peers, MCAP recording.
+//! Cyclone DDS and Fast DDS peers, the ROS 2 conventions (node_ros), MCAP recording.
 #![cfg(feature = "ros")]
+
+/// The ROS_DOMAIN_ID of test slot `slot` (0..32) in this test process: each
+/// test that runs a node has its own slot, so parallel tests never share a
+/// domain (they did: node_dds's and node_fastdds's formulas could meet). The
+/// process id spreads concurrent test processes over 7 blocks of 32; every id
+/// stays <= 224, whose RTPS ports are below 65536.
+/// Slots: node_dds 0-3, node_fastdds 4, node_cyclone 5, record_mcap 6-9, node_ros 10-21.
+pub fn domain(slot: u16) -> u16 {
+    assert!(slot < 32, "domain slot {slot}");
+    1 + (std::process::id() as u16 % 7) * 32 + slot
+}
 
 mod node_cyclone;
 mod node_dds;
 mod node_fastdds;
 mod node_msgs;
+mod node_ros;
 mod record_mcap;

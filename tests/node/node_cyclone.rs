@@ -28,7 +28,7 @@ fn cyclone_python_peer_talks_to_the_node() {
         );
         return;
     }
-    let dom = 200 + (std::process::id() % 30) as u16;
+    let dom = crate::domain(5);
     let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/python");
     let mut node = Command::new(env!("CARGO_BIN_EXE_truss-deploy"))
         .args([

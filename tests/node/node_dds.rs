@@ -16,8 +16,7 @@ use truss_deploy::node::qos;
 const MODEL: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/models/pantograph_mast.toml");
 
 fn domain(k: u16) -> u16 {
-    // 4 tests per binary; keep below 200 so RustDDS ports stay < 65536.
-    10 + ((std::process::id() as u16 % 45) * 4 + k) % 180
+    crate::domain(k)
 }
 
 struct NodeProc(Child);

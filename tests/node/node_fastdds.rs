@@ -15,19 +15,20 @@ use std::time::{Duration, Instant};
 const MODEL: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/models/pantograph_mast.toml");
 
 /// Builds the peer into the target dir; None (with the reason) when it cannot.
-fn build_peer() -> Result<PathBuf, String> {
-    let src = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/fastdds/peer.cpp");
+/// Compiles tests/fastdds/NAME.cpp (with common.hpp) against Debian's Fast DDS.
+fn build_peer(name: &str) -> Result<PathBuf, String> {
+    let src = format!("{}/tests/fastdds/{name}.cpp", env!("CARGO_MANIFEST_DIR"));
     if !std::path::Path::new("/usr/include/fastdds").is_dir() {
         return Err(
             "Fast DDS headers (/usr/include/fastdds) missing: apt-get install libfastrtps-dev"
                 .into(),
         );
     }
-    let out = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("fastdds-peer");
+    let out = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join(format!("fastdds-{name}"));
     let status = Command::new("g++")
         .args(["-std=c++17", "-O1", "-o"])
         .arg(&out)
-        .arg(src)
+        .arg(&src)
         .args(["-lfastrtps", "-lfastcdr"])
         .status()
         .map_err(|e| format!("g++: {e}"))?;
@@ -37,19 +38,43 @@ fn build_peer() -> Result<PathBuf, String> {
     Ok(out)
 }
 
-#[test]
-fn fastdds_peer_talks_to_the_node_with_no_mapping_flag() {
-    let peer = match build_peer() {
-        Ok(p) => p,
+/// The peer built, or None (a loud SKIP) without Fast DDS; with
+/// TRUSS_REQUIRE_FASTDDS=1 (CI) a missing Fast DDS fails the test.
+pub(crate) fn peer_or_skip(name: &str) -> Option<PathBuf> {
+    // Built once per test process: tests run in parallel, and two g++ writing
+    // one binary while a third test runs it would race.
+    static BUILT: std::sync::Mutex<Vec<(String, Result<PathBuf, String>)>> =
+        std::sync::Mutex::new(Vec::new());
+    let mut built = BUILT.lock().unwrap_or_else(|e| e.into_inner());
+    let r = match built.iter().find(|(n, _)| n == name) {
+        Some((_, r)) => r.clone(),
+        None => {
+            let r = build_peer(name);
+            built.push((name.to_string(), r.clone()));
+            r
+        }
+    };
+    drop(built);
+    match r {
+        Ok(p) => Some(p),
         Err(why) => {
             if std::env::var("TRUSS_REQUIRE_FASTDDS").as_deref() == Ok("1") {
                 panic!("TRUSS_REQUIRE_FASTDDS=1 but the Fast DDS peer cannot be built: {why}");
             }
-            eprintln!("\n!!!!!!!! SKIPPED node_fastdds: {why}. .ci/run installs it. !!!!!!!!\n");
-            return;
+            eprintln!(
+                "\n!!!!!!!! SKIPPED (Fast DDS {name}): {why}. .ci/run installs it. !!!!!!!!\n"
+            );
+            None
         }
+    }
+}
+
+#[test]
+fn fastdds_peer_talks_to_the_node_with_no_mapping_flag() {
+    let Some(peer) = peer_or_skip("peer") else {
+        return;
     };
-    let dom = 170 + (std::process::id() % 25) as u16;
+    let dom = crate::domain(4);
     let mut node = Command::new(env!("CARGO_BIN_EXE_truss-deploy"))
         .args([
             "node",

@@ -342,3 +342,36 @@ fn simulation_interfaces_structs_match_the_published_definitions() {
         assert_eq!(got.1, *value, "{file} {name}");
     }
 }
+
+/// The SimulateSteps action's wire structs (rcl_action's layout: the goal id
+/// before the goal and the feedback, the status before the result) carry the
+/// fields of tests/data/simulation_interfaces-2.1.0/SimulateSteps.action.
+#[test]
+fn simulate_steps_structs_match_the_published_action() {
+    use msgs::action::*;
+    let text = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("tests/data/simulation_interfaces-2.1.0/SimulateSteps.action"),
+    )
+    .unwrap();
+    let parts: Vec<Vec<(String, String)>> = text
+        .split("\n---")
+        .map(|p| {
+            let (fields, _) = parse_part(p, "msg");
+            fields
+        })
+        .collect();
+    assert_eq!(parts.len(), 3, "goal, result, feedback");
+    let names = |p: &[(String, String)]| -> Vec<String> { p.iter().map(|f| f.0.clone()).collect() };
+    assert_eq!(parts[0], [("steps".to_string(), "uint64".to_string())]);
+    assert_eq!(parts[1], [("result".to_string(), "Result".to_string())]);
+    let mut goal = vec!["goal_id".to_string()];
+    goal.extend(names(&parts[0]));
+    assert_eq!(serde_fields::<SendGoalRequest>().1, goal);
+    let mut fb = vec!["goal_id".to_string()];
+    fb.extend(names(&parts[2]));
+    assert_eq!(serde_fields::<FeedbackMessage>().1, fb);
+    let mut res = vec!["status".to_string()];
+    res.extend(names(&parts[1]));
+    assert_eq!(serde_fields::<GetResultResponse>().1, res);
+}

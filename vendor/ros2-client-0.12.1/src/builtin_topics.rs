@@ -55,7 +55,9 @@ pub mod rosout {
       .deadline(Deadline(Duration::INFINITE))
       .ownership(Ownership::Shared)
       .reliable(Duration::ZERO)
-      .history(History::KeepLast { depth: 1 })
+      // truss-deploy patch (vendor/PATCHES.md, P5): keep last 1000, as rcl's
+      // rcl_qos_profile_rosout_default (upstream: 1).
+      .history(History::KeepLast { depth: 1000 })
       .lifespan(Lifespan {
         duration: Duration::from_secs(10)
       })

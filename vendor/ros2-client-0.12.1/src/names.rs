@@ -311,7 +311,9 @@ impl MessageTypeName {
     }
   }
 
-  pub(crate) fn new_prefix(package_name: &str, type_name: &str, prefix: String) -> Self {
+  /// truss-deploy patch (vendor/PATCHES.md, P6): public, to name an action's
+  /// types (`pkg/action/Type_FeedbackMessage`) for an action served by hand.
+  pub fn new_prefix(package_name: &str, type_name: &str, prefix: String) -> Self {
     MessageTypeName {
       prefix,
       ros2_package_name: package_name.to_owned(),
@@ -354,7 +356,9 @@ impl ServiceTypeName {
     }
   }
 
-  pub(crate) fn new_prefix(package_name: &str, type_name: &str, prefix: String) -> Self {
+  /// truss-deploy patch (vendor/PATCHES.md, P6): public, as
+  /// [`MessageTypeName::new_prefix`] (`pkg/action/Type_SendGoal`).
+  pub fn new_prefix(package_name: &str, type_name: &str, prefix: String) -> Self {
     ServiceTypeName {
       prefix,
       msg: MessageTypeName::new(package_name, type_name),

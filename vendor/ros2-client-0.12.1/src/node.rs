@@ -164,11 +164,21 @@ impl Spinner {
     let ros_discovery_stream = ros_discovery_reader.async_stream();
     pin_mut!(ros_discovery_stream);
 
-    let ros_clock_reader = self
-      .ros_context
-      .create_subscription::<builtin_interfaces::Time>(&self.clock_topic, None)?;
-    let ros_clock_stream = ros_clock_reader.async_stream();
-    pin_mut!(ros_clock_stream);
+    // truss-deploy patch (vendor/PATCHES.md, P4): read /clock only for a node
+    // that uses simulated time, and as rosgraph_msgs/Clock (its only field is a
+    // builtin_interfaces/Time, so the CDR is the same). Upstream always made
+    // this reader, as builtin_interfaces/Time: a node publishing /clock then
+    // announced the topic with two types.
+    let ros_clock_reader = if self.parameters.use_sim_time() {
+      Some(
+        self
+          .ros_context
+          .create_subscription::<builtin_interfaces::Time>(&self.clock_topic, None)?,
+      )
+    } else {
+      None
+    };
+    let mut ros_clock_stream = ros_clock_reader.as_ref().map(|r| Box::pin(r.async_stream()));
 
     // These are Option< impl Stream<_>>
     let mut get_parameters_stream_opt = self
@@ -204,7 +214,7 @@ impl Spinner {
           break;
         }
 
-        clock_msg = ros_clock_stream.select_next_some() => {
+        clock_msg = next_if_some(&mut ros_clock_stream).fuse() => {
           match clock_msg {
             Ok((time,_msg_info)) => {
               // Simulated time is updated internally unconditionally.
@@ -711,9 +721,10 @@ impl Node {
       None // No parameter services
     };
 
+    // truss-deploy patch (vendor/PATCHES.md, P4): the type /clock has in ROS 2.
     let clock_topic = self.create_topic(
       &Name::new("/", "clock").unwrap(),
-      MessageTypeName::new("builtin_interfaces", "Time"),
+      MessageTypeName::new("rosgraph_msgs", "Clock"),
       &DEFAULT_SUBSCRIPTION_QOS,
     )?;
 
