@@ -227,7 +227,7 @@ fn latch_loads(path: &Path, m: &Meta, rows: &[Row]) -> Result<(), String> {
         .collect();
     sleeves.sort_by(|a, b| quantile(&a.1, 0.5).total_cmp(&quantile(&b.1, 0.5)));
     let n = sleeves.len().max(1);
-    let (w, h) = ((14 * n as u32 + 200).max(700), 620u32);
+    let (w, h) = ((16 * n as u32 + 200).max(800), 620u32);
     let (lo, hi) = padded_range(sleeves.iter().flat_map(|s| s.1.iter().copied()), 1e-9);
     let lo = lo.min(0.0);
     let (ylabel, what) = if compliant {
@@ -243,7 +243,7 @@ fn latch_loads(path: &Path, m: &Meta, rows: &[Row]) -> Result<(), String> {
         let body = root
             .titled(
                 &format!(
-                    "{}: latch {what} per sleeve over {} samples (min-max, quartiles, median)",
+                    "{}: latch {what} per sleeve, {} samples",
                     m.name,
                     rows.len()
                 ),
@@ -272,12 +272,12 @@ fn latch_loads(path: &Path, m: &Meta, rows: &[Row]) -> Result<(), String> {
             .bold_line_style(GRID_BOLD)
             .disable_x_mesh()
             .y_desc(ylabel)
-            .x_desc("sleeve (by median load)")
+            .x_desc("sleeve, by median load (line: min to max; box: quartiles; red: median)")
             .x_labels(n + 1)
+            .label_style((FONT, 14))
             .x_label_style(
                 TextStyle::from((FONT, 11).into_font()).transform(FontTransform::Rotate90),
             )
-            .label_style((FONT, 14))
             .axis_desc_style((FONT, 16))
             .x_label_formatter(&label)
             .y_label_formatter(&move |v: &f64| tick_label(*v, span))

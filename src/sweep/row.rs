@@ -5,12 +5,31 @@ use crate::run::{self, NoObserver, RunLimits, RunSummary};
 use crate::solver::{Options, Simulator};
 use serde::{Deserialize, Serialize};
 
+/// JSON has no NaN: serde_json writes it as null; these read null back as
+/// NaN (a `panic` row's parameters, a latch of a run that went wrong), so
+/// that every row written can be read again.
+mod null_is_nan {
+    use serde::{Deserialize, Deserializer};
+    pub fn one<'de, D: Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+        Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::NAN))
+    }
+    pub fn many<'de, D: Deserializer<'de>>(d: D) -> Result<Vec<f64>, D::Error> {
+        Ok(Vec::<Option<f64>>::deserialize(d)?
+            .into_iter()
+            .map(|v| v.unwrap_or(f64::NAN))
+            .collect())
+    }
+}
+
 /// A latch of a sample's run.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct LatchRow {
     pub name: String,
+    #[serde(deserialize_with = "null_is_nan::one")]
     pub time_s: f64,
+    #[serde(deserialize_with = "null_is_nan::one")]
     pub impulse_ns: f64,
+    #[serde(deserialize_with = "null_is_nan::one")]
     pub energy_lost_j: f64,
     /// Compliant latches: the largest force (N); None for a rigid latch.
     pub peak_force_n: Option<f64>,
@@ -23,6 +42,7 @@ pub struct Row {
     pub index: u64,
     pub seed: u64,
     /// The parameter values, in the sweep file's order.
+    #[serde(deserialize_with = "null_is_nan::many")]
     pub params: Vec<f64>,
     /// deployed, until, end_time, stalled, error (a failed step or check,
     /// the wall limit), invalid (the model could not be made or run), panic.
@@ -32,6 +52,7 @@ pub struct Row {
     pub deploy_time_s: Option<f64>,
     pub time_s: Option<f64>,
     pub steps: Option<u64>,
+    #[serde(deserialize_with = "null_is_nan::one")]
     pub wall_time_s: f64,
     pub final_error_rel: Option<f64>,
     pub max_constraint_violation_m: Option<f64>,
@@ -223,5 +244,22 @@ pub fn run_model(
     Row {
         wall_time_s: start.elapsed().as_secs_f64(),
         ..Row::from_summary(index, seed, params, &summary)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_panic_row_with_nan_parameters_reads_back() {
+        let r = Row::failed(3, 9, vec![f64::NAN, 1.5], "panic", "boom".into());
+        let back: Row = serde_json::from_str(&serde_json::to_string(&r).unwrap()).unwrap();
+        assert!(back.params[0].is_nan());
+        assert_eq!(back.params[1], 1.5);
+        assert_eq!(
+            (back.index, back.seed, back.stop_reason.as_str()),
+            (3, 9, "panic")
+        );
     }
 }

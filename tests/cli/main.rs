@@ -6,3 +6,4 @@ mod cli_plots;
 mod malformed_corpus;
 mod model_errors;
 mod run_outcomes;
+mod sweep;
