@@ -254,7 +254,7 @@ fn latch_loads(path: &Path, m: &Meta, rows: &[Row]) -> Result<(), String> {
         let mut chart = ChartBuilder::on(&body)
             .margin(12)
             .margin_right(24)
-            .x_label_area_size(if n > 1 { 110 } else { 45 })
+            .x_label_area_size(if n > 1 { 90 } else { 45 })
             .y_label_area_size(80)
             .build_cartesian_2d(-0.7..n as f64 - 0.3, lo..hi)
             .map_err(&err)?;
