@@ -439,3 +439,40 @@ pub fn sweep_of_dir(dir: &Path, gen: &Generator) -> Result<(Meta, Sweep), SweepF
     }
     Ok((m, s))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A generator that writes the bundled mast, and panics when asked for
+    /// a tension of 2 N (a worker's panic, injected).
+    fn mast_or_panic(_kind: &str, args: &[(String, Option<String>)]) -> Result<String, String> {
+        if args
+            .iter()
+            .any(|(k, v)| k == "tension_n" && v.as_deref() == Some("2"))
+        {
+            panic!("injected failure at tension 2 N");
+        }
+        Ok(include_str!("../../models/pantograph_mast.toml").to_string())
+    }
+
+    #[test]
+    fn a_panic_in_a_sample_is_its_row() {
+        let text = "[sweep]\nname = \"p\"\nseed = 1\n[base]\ngenerator = \"mast\"\n\
+                    [[param]]\nkey = \"generator.tension_n\"\ndist = \"list\"\nvalues = [1, 2]\n";
+        let s = Sweep::parse(text, "p.toml", Path::new("."), &mast_or_panic).expect("valid sweep");
+        assert_eq!(s.len(), 2);
+        let ok = run_sample(&s, 0, &mast_or_panic, None);
+        assert_eq!(ok.stop_reason, "deployed", "{}", ok.stop_message);
+        let bad = run_sample(&s, 1, &mast_or_panic, None);
+        assert_eq!(bad.stop_reason, "panic");
+        assert!(
+            bad.stop_message.contains("injected failure at tension 2 N"),
+            "{}",
+            bad.stop_message
+        );
+        assert_eq!(bad.index, 1);
+        assert_eq!(bad.seed, rng::sample_seed(1, 1));
+        assert!(!bad.deployed && bad.deploy_time_s.is_none());
+    }
+}
