@@ -2,7 +2,8 @@
 //!
 //! [`solver`] is the pure simulator core (Xu Yan et al.'s macroelement method with
 //! exact latch events and drift-free projection); [`model`] reads, validates and
-//! generates model files.
+//! generates model files; [`run`] runs one model to deployment (for `simulate` and
+//! every sweep sample); [`sweep`] runs many samples of a model with scattered parameters.
 
 /// println! that ignores a failed write (a closed pipe, a full disk) instead
 /// of panicking: the exit status and the files written still tell.
@@ -26,4 +27,6 @@ pub mod cli;
 pub mod model;
 #[cfg(feature = "ros")]
 pub mod node;
+pub mod run;
 pub mod solver;
+pub mod sweep;

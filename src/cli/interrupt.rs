@@ -34,8 +34,3 @@ pub fn install() -> bool {
 pub fn flag() -> Arc<AtomicBool> {
     REQUESTED.clone()
 }
-
-/// A signal has asked the run to stop.
-pub fn requested() -> bool {
-    REQUESTED.load(Ordering::SeqCst)
-}

@@ -1,4 +1,4 @@
-//! The clap front end: `simulate`, `analyze`, `generate`, `bench`, `node`.
+//! The clap front end: `simulate`, `analyze`, `generate`, `bench`, `sweep`, `node`.
 //! Exit status 0 on success, 2 on bad input (arguments, model files), 1 when a
 //! run fails part-way (what was computed until then is still written).
 
@@ -12,9 +12,11 @@ use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 mod interrupt;
-mod output;
+pub(crate) mod output;
 mod plot;
 mod simulate;
+mod sweep;
+mod sweep_plot;
 
 /// Writes one `warning:` line on stderr; a failed write is ignored (never a panic).
 pub(crate) fn warn(message: &str) {
@@ -54,6 +56,9 @@ enum Cmd {
         after_help = "Example: truss-deploy bench models/double_ring_synchronized.toml --steps 500 --json bench.json"
     )]
     Bench(BenchArgs),
+    /// Monte-Carlo and grid studies: many samples of a model with scattered parameters,
+    /// one Parquet row each, summary and plots (docs/sweeps.md).
+    Sweep(sweep::SweepArgs),
     /// Run the ROS 2 node: step in real time, publish over DDS (see launch_notes.md).
     #[cfg(feature = "ros")]
     #[command(
@@ -334,6 +339,7 @@ pub fn main() -> i32 {
         Cmd::Analyze(a) => analyze(a),
         Cmd::Generate(a) => generate_cmd(a),
         Cmd::Bench(a) => bench(a),
+        Cmd::Sweep(a) => sweep::run(a),
         #[cfg(feature = "ros")]
         Cmd::Node(mut a) => node_outputs(&a).and_then(|_| {
             a.ros_args = ros_args;
@@ -538,8 +544,48 @@ fn analyze(a: AnalyzeArgs) -> Result<(), Failure> {
     Ok(())
 }
 
+/// `generate` alone, as a sweep's base generator calls it (`sweep::generator`).
+#[derive(Parser, Debug)]
+#[command(name = "truss-deploy")]
+struct GenerateOnly {
+    #[command(flatten)]
+    args: GenerateArgs,
+}
+
+impl GenerateOnly {
+    /// Parses `generate KIND ...` (the first element names the command).
+    fn try_parse_from_args(argv: &[String]) -> Result<GenerateArgs, String> {
+        GenerateOnly::try_parse_from(argv)
+            .map(|g| g.args)
+            .map_err(|e| {
+                e.to_string()
+                    .trim()
+                    .replace("\n\nFor more information, try '--help'.", "")
+            })
+    }
+}
+
 fn generate_cmd(a: GenerateArgs) -> Result<(), Failure> {
     output::check_outputs(&[], &[("-o", a.output.as_path())])?;
+    let doc = generate_doc(&a)?;
+    let text = doc.to_toml();
+    // Written models must load: check before writing (nothing is written when
+    // they do not; the options made them, so it is an input error).
+    let kind = format!("{:?}", a.kind).to_lowercase();
+    model::parse(&text, &format!("the model `generate {kind}` would write"))
+        .map_err(|e| Failure::input(format!("{e}; nothing was written: change the options")))?;
+    output::write_atomic(&a.output, text.as_bytes()).map_err(Failure::run)?;
+    say!(
+        "wrote {} ({} joints, {} elements)",
+        a.output.display(),
+        doc.joints.len(),
+        doc.elements.len()
+    );
+    Ok(())
+}
+
+/// The model document `generate` makes of its arguments.
+fn generate_doc(a: &GenerateArgs) -> Result<model::ModelDoc, Failure> {
     // (options of the ring alone: a mast or sail would silently ignore them)
     let ring_only = [
         ("--sync", a.sync.is_some()),
@@ -560,7 +606,7 @@ fn generate_cmd(a: GenerateArgs) -> Result<(), Failure> {
             format!("{:?}", a.kind).to_lowercase()
         )));
     }
-    let doc = match a.kind {
+    Ok(match a.kind {
         Kind::Mast => {
             let d = generate::MastParams::default();
             let p = generate::MastParams {
@@ -645,21 +691,7 @@ fn generate_cmd(a: GenerateArgs) -> Result<(), Failure> {
             };
             generate::sail::sail(&p).map_err(Failure::input)?
         }
-    };
-    let text = doc.to_toml();
-    // Written models must load: check before writing (nothing is written when
-    // they do not; the options made them, so it is an input error).
-    let kind = format!("{:?}", a.kind).to_lowercase();
-    model::parse(&text, &format!("the model `generate {kind}` would write"))
-        .map_err(|e| Failure::input(format!("{e}; nothing was written: change the options")))?;
-    output::write_atomic(&a.output, text.as_bytes()).map_err(Failure::run)?;
-    say!(
-        "wrote {} ({} joints, {} elements)",
-        a.output.display(),
-        doc.joints.len(),
-        doc.elements.len()
-    );
-    Ok(())
+    })
 }
 
 #[derive(Serialize)]

@@ -106,13 +106,17 @@ impl AtomicFile {
     }
 
     /// Flushes, syncs and renames the temporary file onto the target.
-    pub fn commit(mut self) -> Result<(), String> {
+    pub fn commit(self) -> Result<(), String> {
+        self.finish(true)
+    }
+
+    fn finish(mut self, sync: bool) -> Result<(), String> {
         let target = self.target.display().to_string();
         let out = self.out.take().expect("committed once");
         let file = out
             .into_inner()
             .map_err(|e| format!("cannot write {target}: {}", e.error()))?;
-        file.sync_all()
+        (if sync { file.sync_all() } else { Ok(()) })
             .and_then(|_| std::fs::rename(&self.temp, &self.target))
             .map_err(|e| format!("cannot write {target}: {e}"))
     }
@@ -128,9 +132,17 @@ impl Drop for AtomicFile {
 
 /// Writes `bytes` to `path` atomically.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), String> {
+    write_atomic_with(path, bytes, true)
+}
+
+/// Writes `bytes` to `path` atomically, synced to disk or not: unsynced,
+/// the file survives the end of the process however it ends (SIGKILL too),
+/// not a crash of the machine (for the many small rows of a sweep, whose
+/// fsyncs would dominate its time).
+pub fn write_atomic_with(path: &Path, bytes: &[u8], sync: bool) -> Result<(), String> {
     let mut f = AtomicFile::create(path)?;
     f.writer()
         .write_all(bytes)
         .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
-    f.commit()
+    f.finish(sync)
 }

@@ -14,8 +14,8 @@ use std::path::{Path, PathBuf};
 
 type Area<'a> = DrawingArea<SVGBackend<'a>, Shift>;
 
-const FONT: &str = "sans-serif";
-const PALETTE: [RGBColor; 10] = [
+pub(super) const FONT: &str = "sans-serif";
+pub(super) const PALETTE: [RGBColor; 10] = [
     RGBColor(31, 119, 180),
     RGBColor(214, 39, 40),
     RGBColor(44, 160, 44),
@@ -40,11 +40,11 @@ fn style(size: u32, h: HPos, v: VPos) -> TextStyle<'static> {
     TextStyle::from((FONT, size).into_font()).pos(Pos::new(h, v))
 }
 
-fn write_svg(path: &Path, svg: String) -> Result<(), String> {
+pub(super) fn write_svg(path: &Path, svg: String) -> Result<(), String> {
     super::output::write_atomic(path, svg.as_bytes())
 }
 
-fn drawing<E: std::fmt::Display>(path: &Path) -> impl Fn(E) -> String + '_ {
+pub(super) fn drawing<E: std::fmt::Display>(path: &Path) -> impl Fn(E) -> String + '_ {
     move |e| format!("cannot draw {}: {e}", path.display())
 }
 
@@ -76,7 +76,7 @@ fn lock_label(t: f64, names: &[&str]) -> String {
 }
 
 /// Tick labels with as many decimals as the tick spacing needs, and no "-0".
-fn tick_label(v: f64, span: f64) -> String {
+pub(super) fn tick_label(v: f64, span: f64) -> String {
     let step = span / 6.0;
     let decimals = if step > 0.0 && step.is_finite() {
         (-step.log10().floor()).clamp(0.0, 9.0) as usize
@@ -95,7 +95,7 @@ fn tick_label(v: f64, span: f64) -> String {
 }
 
 /// A range that contains all `values`, padded, at least `min_span` wide.
-fn padded_range(values: impl Iterator<Item = f64>, min_span: f64) -> (f64, f64) {
+pub(super) fn padded_range(values: impl Iterator<Item = f64>, min_span: f64) -> (f64, f64) {
     let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
     for v in values.filter(|v| v.is_finite()) {
         lo = lo.min(v);

@@ -10,18 +10,16 @@
 
 use super::output::{check_outputs, write_atomic, AtomicFile};
 use super::{interrupt, make_simulator_from, plot, Failure, SolverArg};
-use crate::solver::checks::{self, HeldShortWatch, RunChecks, StallWatch};
-use crate::solver::{Energy, LockEvent, Simulator, SolverError, SolverStats, StepLimits, StopWhy};
+use crate::run::{self, RunLimits, RunObserver};
+use crate::solver::checks;
+use crate::solver::{LockEvent, Simulator};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
-use serde::Serialize;
 use std::io::Write;
 use std::path::PathBuf;
-use std::time::Instant;
 
 #[derive(Args, Debug)]
 pub struct SimulateArgs {
-    /// Model file (TOML).
     model: PathBuf,
     /// Time step (s); default: the model's `dt_s`. At least 1e-9 of the run, at most all of it.
     #[arg(long, allow_negative_numbers = true)]
@@ -52,8 +50,6 @@ pub struct SimulateArgs {
     /// by impulse, the hardest and the last latch labelled (SVG).
     #[arg(long, value_name = "FILE.svg")]
     latch_plot: Option<PathBuf>,
-    /// Linear solver: sparse (range-space LDL^T and conjugate gradients) or dense (SVD, the
-    /// paper's null-space method); the same motion.
     #[arg(long, value_enum, default_value_t = SolverArg::Sparse)]
     solver: SolverArg,
     /// Record the run as a ROS 2 MCAP file: the node's topics, log time = simulation time.
@@ -72,73 +68,7 @@ pub struct SimulateArgs {
     mcap_rate: Option<f64>,
 }
 
-/// Why a run stopped.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum StopReason {
-    /// Every sleeve latched (or the truss became rigid): exit 0.
-    Deployed,
-    /// `--until` reached: exit 0.
-    Until,
-    /// The model's `end_time_s` reached without deploying: exit 1.
-    EndTime,
-    /// At rest, and no drive moves it (`checks::StallWatch`): exit 1.
-    Stalled,
-    /// SIGINT or SIGTERM: exit 130.
-    Interrupted,
-    /// A step failed, a self-check failed, an output could not be written or
-    /// the wall-clock limit was reached: exit 1.
-    Error,
-}
-
-impl StopReason {
-    pub fn exit_code(self) -> i32 {
-        match self {
-            StopReason::Deployed | StopReason::Until => 0,
-            StopReason::Interrupted => 130,
-            _ => 1,
-        }
-    }
-    fn label(self) -> &'static str {
-        match self {
-            StopReason::Deployed => "deployed",
-            StopReason::Until => "until",
-            StopReason::EndTime => "end_time",
-            StopReason::Stalled => "stalled",
-            StopReason::Interrupted => "interrupted",
-            StopReason::Error => "error",
-        }
-    }
-}
-
-#[derive(Serialize)]
-pub struct SimulateJson {
-    pub model: String,
-    pub solver: String,
-    pub dt_s: f64,
-    pub deployed: bool,
-    pub deploy_time_s: Option<f64>,
-    pub time_s: f64,
-    pub steps: u64,
-    pub wall_time_s: f64,
-    pub final_error_rel: Option<f64>,
-    pub max_constraint_violation_m: f64,
-    pub energy_balance_rel_error: f64,
-    pub dof_initial: usize,
-    pub dof_final: usize,
-    pub kinetic_energy_j: f64,
-    pub energy: Energy,
-    pub locks: Vec<LockEvent>,
-    /// Why the run stopped, and the sentence that says so.
-    pub stop_reason: StopReason,
-    pub stop_message: String,
-    /// Set when the run stopped on an error (the same as `stop_message`);
-    /// everything above is what was computed until then.
-    pub error: Option<String>,
-    /// What the solver did: steps, sub-steps, iterations, factorizations,
-    /// solves, fallbacks by kind, latch searches.
-    pub solver_stats: SolverStats,
-}
+pub use crate::run::{RunSummary as SimulateJson, StopReason};
 
 fn check_positive(name: &str, v: Option<f64>) -> Result<(), Failure> {
     match v {
@@ -147,31 +77,6 @@ fn check_positive(name: &str, v: Option<f64>) -> Result<(), Failure> {
         ))),
         _ => Ok(()),
     }
-}
-
-/// The step and the run length must make a bounded, meaningful run: dt at
-/// most the whole run, at least `min_dt_fraction` of it, and no more steps
-/// than `max_steps`.
-fn check_step_count(dt: f64, until: f64, dt_from: &str, checks: &RunChecks) -> Result<(), Failure> {
-    if dt > until {
-        return Err(Failure::input(format!(
-            "{dt_from} {dt:?} s is longer than the run ({until:?} s); give a step shorter than the run"
-        )));
-    }
-    if dt < checks.min_dt_fraction * until {
-        return Err(Failure::input(format!(
-            "{dt_from} {dt:?} s is below {:e} of the run ({until:?} s); give a larger step or a shorter --until",
-            checks.min_dt_fraction
-        )));
-    }
-    let steps = (until / dt).ceil();
-    if steps > checks.max_steps as f64 {
-        return Err(Failure::input(format!(
-            "{dt_from} {dt:?} s over {until:?} s makes {steps:.0} steps, more than the budget of {} ([checks] max_steps); give a larger step or a shorter --until",
-            checks.max_steps
-        )));
-    }
-    Ok(())
 }
 
 fn csv_header(sim: &Simulator) -> String {
@@ -191,6 +96,54 @@ fn csv_row(out: &mut impl Write, sim: &Simulator) -> std::io::Result<()> {
         write!(out, ",{v}")?;
     }
     writeln!(out)
+}
+
+/// `simulate`'s outputs hooked into the run loop: the CSV rows and the plot
+/// recorder after each step, the MCAP recording and the progress bar after
+/// the checks, the signal flag.
+struct Hooks<'a> {
+    csv: Option<(&'a mut AtomicFile, &'a std::path::Path)>,
+    rec: &'a mut plot::Recorder,
+    #[cfg(feature = "ros")]
+    mcap: Option<&'a mut (
+        crate::node::record::OfflineRecording,
+        std::path::PathBuf,
+        std::path::PathBuf,
+    )>,
+    bar: &'a ProgressBar,
+}
+
+impl RunObserver for Hooks<'_> {
+    fn after_step(&mut self, sim: &Simulator) -> Result<(), String> {
+        if let Some((f, path)) = self.csv.as_mut() {
+            csv_row(f.writer(), sim)
+                .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+        }
+        let s = sim.state();
+        self.rec.record(s.t_s, &s.x);
+        Ok(())
+    }
+
+    fn after_checks(&mut self, sim: &mut Simulator) -> Result<(), String> {
+        #[cfg(feature = "ros")]
+        if let Some((mc, temp, target)) = self.mcap.as_mut() {
+            mc.after_step(sim).map_err(|e| {
+                let e = e.replace(&temp.display().to_string(), &target.display().to_string());
+                format!("cannot record --mcap: {e}")
+            })?;
+        }
+        let (m, s) = (sim.model(), sim.state());
+        self.bar.inc(1);
+        if s.steps % 20 == 0 {
+            self.bar.set_message(format!(
+                "{:.2} s, {}/{} locks",
+                s.t_s,
+                s.locks_engaged(m),
+                m.locks.len()
+            ));
+        }
+        Ok(())
+    }
 }
 
 pub fn run(a: SimulateArgs) -> Result<(), Failure> {
@@ -217,8 +170,8 @@ pub fn run(a: SimulateArgs) -> Result<(), Failure> {
     let dt = a.dt.unwrap_or(sim.model().dt_s);
     let until = a.until.unwrap_or(sim.model().end_time_s);
     let dt_from = if a.dt.is_some() { "--dt" } else { "dt_s" };
-    check_step_count(dt, until, dt_from, &checks)
-        .map_err(|f| Failure::input(format!("{}: {}", a.model.display(), f.message)))?;
+    run::check_step_count(dt, until, dt_from, &checks)
+        .map_err(|m| Failure::input(format!("{}: {m}", a.model.display())))?;
     // A model that cannot deploy is refused when the run is to deploy it;
     // with --until (a run for a time) it is a warning.
     if let Some(why) = checks::cannot_deploy(sim.model(), sim.state()) {
@@ -280,143 +233,26 @@ pub fn run(a: SimulateArgs) -> Result<(), Failure> {
         .progress_chars("=> "),
     );
     interrupt::install();
-    let start = Instant::now();
-    // (checked inside a step too: one step near a singular state can run
-    // for minutes)
-    sim.set_step_limits(StepLimits {
-        deadline: a
-            .max_wall_s
-            .map(|limit| start + std::time::Duration::from_secs_f64(limit)),
-        cancel: Some(interrupt::flag()),
-    });
-    let mut stall = StallWatch::new(sim.model(), &checks);
-    let mut held = HeldShortWatch::new(sim.model(), &checks);
-    let stop: (StopReason, String) = loop {
-        let (m, s) = (sim.model(), sim.state());
-        if let Some(msg) = checks::jammed(m, s, &checks) {
-            break (StopReason::Stalled, msg);
-        }
-        if s.deployed {
-            let t = s.deploy_time_s.unwrap_or(0.0);
-            break (
-                StopReason::Deployed,
-                if s.locks.is_empty() {
-                    "deployed: every sleeve was latched at the start".into()
-                } else {
-                    {
-                        let open = m.locks.iter().filter(|&&e| !s.locked[e]).count();
-                        if open == 0 {
-                            format!("deployed at t = {t:.6} s: every sleeve latched")
-                        } else {
-                            format!(
-                            "deployed at t = {t:.6} s: rigid (no mechanism left) with {open} of {} sleeves not latched",
-                            m.locks.len()
-                        )
-                        }
-                    }
-                },
-            );
-        }
-        if s.t_s >= until - 1e-9 * dt {
-            break match a.until {
-                Some(u) => (
-                    StopReason::Until,
-                    format!("reached --until {u} s, not deployed"),
-                ),
-                None => (
-                    StopReason::EndTime,
-                    format!(
-                        "reached the model's end_time_s = {until} s without deploying; {}",
-                        checks::unlatched_summary(m, s)
-                    ),
-                ),
-            };
-        }
-        if interrupt::requested() {
-            break interrupted_stop(s.t_s);
-        }
-        if let Some(limit) = a.max_wall_s {
-            if start.elapsed().as_secs_f64() > limit {
-                break wall_limit_stop(limit, s.t_s);
-            }
-        }
-        if s.steps >= checks.max_steps {
-            break (
-                StopReason::Error,
-                format!(
-                    "the step budget of {} steps ([checks] max_steps) was used up at t = {:.6} s",
-                    checks.max_steps, s.t_s
-                ),
-            );
-        }
-        let h = dt.min(until - s.t_s);
-        if let Err(e) = sim.step(h) {
-            if let SolverError::Stopped { t_s, why } = e {
-                break match why {
-                    StopWhy::Cancelled => interrupted_stop(t_s),
-                    StopWhy::Deadline => wall_limit_stop(a.max_wall_s.unwrap_or(0.0), t_s),
-                };
-            }
-            break (
-                StopReason::Error,
-                format!(
-                    "the step from t = {:.6} s failed: {e} (there: {} mechanism(s) left; {})",
-                    sim.state().t_s,
-                    sim.state().mechanisms,
-                    checks::unlatched_summary(sim.model(), sim.state())
-                ),
-            );
-        }
-        let (m, s) = (sim.model(), sim.state());
-        if let Some(f) = csv.as_mut() {
-            if let Err(e) = csv_row(f.writer(), &sim) {
-                break (
-                    StopReason::Error,
-                    format!(
-                        "cannot write {}: {e}",
-                        a.csv.as_ref().expect("csv path").display()
-                    ),
-                );
-            }
-        }
-        rec.record(s.t_s, &s.x);
-        if let Some(why) = checks::energy_unbalanced(m, s, &checks) {
-            break (StopReason::Error, format!("at t = {:.6} s {why}", s.t_s));
-        }
-        if let Some(why) = stall.update(m, s) {
-            break (
-                StopReason::Stalled,
-                format!("stalled at t = {:.6} s: {why}", s.t_s),
-            );
-        }
-        if let Some(why) = held.update(m, s) {
-            break (
-                StopReason::Stalled,
-                format!("stalled at t = {:.6} s: {why}", s.t_s),
-            );
-        }
-        // (recording after the checks: the mutable borrow ends the state's)
+    let mut hooks = Hooks {
+        csv: csv
+            .as_mut()
+            .map(|f| (f, a.csv.as_deref().expect("csv path"))),
+        rec: &mut rec,
         #[cfg(feature = "ros")]
-        if let Some((mc, temp, target)) = mcap.as_mut() {
-            if let Err(e) = mc.after_step(&mut sim) {
-                let e = e.replace(&temp.display().to_string(), &target.display().to_string());
-                break (StopReason::Error, format!("cannot record --mcap: {e}"));
-            }
-        }
-        let (m, s) = (sim.model(), sim.state());
-        bar.inc(1);
-        if s.steps % 20 == 0 {
-            bar.set_message(format!(
-                "{:.2} s, {}/{} locks",
-                s.t_s,
-                s.locks_engaged(m),
-                m.locks.len()
-            ));
-        }
+        mcap: mcap.as_mut(),
+        bar: &bar,
     };
+    let limits = RunLimits {
+        dt_s: dt,
+        until_s: until,
+        until_asked: a.until.is_some(),
+        max_wall_s: a.max_wall_s,
+        cancel: Some(interrupt::flag()),
+    };
+    let stop = run::run_loop(&mut sim, &checks, limits, &mut hooks);
     bar.finish_and_clear();
-    let wall = start.elapsed().as_secs_f64();
-    let (mut reason, mut message) = stop;
+    let wall = stop.wall_time_s;
+    let (mut reason, mut message) = (stop.reason, stop.message);
     // Outputs: what was computed, whatever stopped the run. A failed write
     // turns a run that did what was asked into an error (exit 1).
     let mut write_errors: Vec<String> = Vec::new();
@@ -465,34 +301,16 @@ pub fn run(a: SimulateArgs) -> Result<(), Failure> {
         reason = StopReason::Error;
         message = write_errors.join("; ");
     }
-    let ke = s.kinetic_energy_j(m);
-    let jam = checks::jammed(m, s, &checks).is_some();
-    let summary = SimulateJson {
-        model: m.name.clone(),
-        solver: format!("{:?}", a.solver).to_lowercase(),
-        dt_s: dt,
-        deployed: s.deployed && !jam,
-        deploy_time_s: if jam {
-            None
-        } else {
-            s.deploy_time_s.or(s.deployed.then_some(0.0))
-        },
-        time_s: s.t_s,
-        steps: s.steps,
-        wall_time_s: wall,
-        final_error_rel: s.final_error_rel(m),
-        max_constraint_violation_m: s.max_violation_m,
-        energy_balance_rel_error: s.energy.balance_rel_error(ke),
+    let summary = run::summarize(
+        &sim,
+        &checks,
+        &format!("{:?}", a.solver).to_lowercase(),
+        dt,
         dof_initial,
-        dof_final: s.mechanisms,
-        kinetic_energy_j: ke,
-        energy: s.energy.clone(),
-        locks: s.locks.clone(),
-        stop_reason: reason,
-        stop_message: message.clone(),
-        solver_stats: sim.solver_stats().clone(),
-        error: (reason == StopReason::Error).then(|| message.clone()),
-    };
+        wall,
+        reason,
+        message.clone(),
+    );
     print_summary(&summary);
     if let Some(j) = &a.json {
         let text = serde_json::to_string_pretty(&summary).expect("summary serializes") + "\n";
@@ -572,7 +390,7 @@ fn print_summary(s: &SimulateJson) {
             "                 more than a tenth of the solves did not converge: the constraints \
              are nearly redundant here (a configuration close to singular, such as a ring's \
              last bays near flat; `cargo run --release --example near_singular` on a restart, \
-             docs/double_ring_stowing.md, \"The 36-sided ring's endgame\"), which is what makes such a run slow"
+             docs/double_ring_stowing.md Session 9), which is what makes such a run slow"
         );
     }
     if !s.locks.is_empty() {
@@ -615,20 +433,4 @@ fn print_summary(s: &SimulateJson) {
             }
         }
     }
-}
-
-/// The stop of a run a signal interrupted at t_s.
-fn interrupted_stop(t_s: f64) -> (StopReason, String) {
-    (
-        StopReason::Interrupted,
-        format!("interrupted by a signal at t = {t_s:.6} s"),
-    )
-}
-
-/// The stop of a run that reached its `--max-wall-s` limit at t_s.
-fn wall_limit_stop(limit_s: f64, t_s: f64) -> (StopReason, String) {
-    (
-        StopReason::Error,
-        format!("the wall-clock limit --max-wall-s {limit_s} s was reached at t = {t_s:.6} s"),
-    )
 }

@@ -7,3 +7,4 @@ mod docs;
 mod malformed_corpus;
 mod model_errors;
 mod run_outcomes;
+mod sweep;

@@ -1,0 +1,336 @@
+//! One run of a model to full deployment, as `simulate` and every `sweep`
+//! sample make it: the stepping loop with its stop reasons and run checks
+//! (`solver::checks`), and the summary of what was computed.
+//!
+//! The loop knows nothing of output files, progress bars or signals: the
+//! caller hooks them in through a [`RunObserver`].
+
+use crate::solver::checks::{self, HeldShortWatch, RunChecks, StallWatch};
+use crate::solver::{Energy, LockEvent, Simulator, SolverError, SolverStats, StepLimits, StopWhy};
+use serde::{Deserialize, Serialize};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+/// Why a run stopped.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum StopReason {
+    /// Every sleeve latched (or the truss became rigid): exit 0.
+    Deployed,
+    /// `--until` reached: exit 0.
+    Until,
+    /// The model's `end_time_s` reached without deploying: exit 1.
+    EndTime,
+    /// At rest, and no drive moves it (`checks::StallWatch`): exit 1.
+    Stalled,
+    /// SIGINT or SIGTERM: exit 130.
+    Interrupted,
+    /// A step failed, a self-check failed, an output could not be written or
+    /// the wall-clock limit was reached: exit 1.
+    Error,
+}
+
+impl StopReason {
+    pub fn exit_code(self) -> i32 {
+        match self {
+            StopReason::Deployed | StopReason::Until => 0,
+            StopReason::Interrupted => 130,
+            _ => 1,
+        }
+    }
+    pub fn label(self) -> &'static str {
+        match self {
+            StopReason::Deployed => "deployed",
+            StopReason::Until => "until",
+            StopReason::EndTime => "end_time",
+            StopReason::Stalled => "stalled",
+            StopReason::Interrupted => "interrupted",
+            StopReason::Error => "error",
+        }
+    }
+}
+
+/// The summary of a run (`simulate --json`).
+#[derive(Serialize)]
+pub struct RunSummary {
+    pub model: String,
+    pub solver: String,
+    pub dt_s: f64,
+    pub deployed: bool,
+    pub deploy_time_s: Option<f64>,
+    pub time_s: f64,
+    pub steps: u64,
+    pub wall_time_s: f64,
+    pub final_error_rel: Option<f64>,
+    pub max_constraint_violation_m: f64,
+    pub energy_balance_rel_error: f64,
+    pub dof_initial: usize,
+    pub dof_final: usize,
+    pub kinetic_energy_j: f64,
+    pub energy: Energy,
+    pub locks: Vec<LockEvent>,
+    /// Why the run stopped, and the sentence that says so.
+    pub stop_reason: StopReason,
+    pub stop_message: String,
+    /// Set when the run stopped on an error (the same as `stop_message`);
+    /// everything above is what was computed until then.
+    pub error: Option<String>,
+    /// What the solver did: steps, sub-steps, iterations, factorizations,
+    /// solves, fallbacks by kind, latch searches.
+    pub solver_stats: SolverStats,
+}
+
+/// How long a run goes: the step, the end time, whether that end time was
+/// asked for (`--until`: reaching it is `Until`, else `EndTime`), the
+/// wall-clock limit (s) and a cancel flag (a signal: `Interrupted`), both
+/// checked before every sub-step, so also inside one long step.
+#[derive(Clone, Debug)]
+pub struct RunLimits {
+    pub dt_s: f64,
+    pub until_s: f64,
+    pub until_asked: bool,
+    pub max_wall_s: Option<f64>,
+    pub cancel: Option<Arc<AtomicBool>>,
+}
+
+/// Hooks of the caller into the loop. `after_step` runs after each step,
+/// before the checks; `after_checks` after the checks passed. An `Err` stops
+/// the run with `StopReason::Error` and that message.
+pub trait RunObserver {
+    fn after_step(&mut self, _sim: &Simulator) -> Result<(), String> {
+        Ok(())
+    }
+    fn after_checks(&mut self, _sim: &mut Simulator) -> Result<(), String> {
+        Ok(())
+    }
+}
+
+/// An observer that does nothing (a sweep sample).
+pub struct NoObserver;
+impl RunObserver for NoObserver {}
+
+/// The step and the run length must make a bounded, meaningful run: dt at
+/// most the whole run, at least `min_dt_fraction` of it, and no more steps
+/// than `max_steps`. `dt_from` names where dt came from (`--dt`, `dt_s`).
+pub fn check_step_count(
+    dt: f64,
+    until: f64,
+    dt_from: &str,
+    checks: &RunChecks,
+) -> Result<(), String> {
+    if dt > until {
+        return Err(format!(
+            "{dt_from} {dt:?} s is longer than the run ({until:?} s); give a step shorter than the run"
+        ));
+    }
+    if dt < checks.min_dt_fraction * until {
+        return Err(format!(
+            "{dt_from} {dt:?} s is below {:e} of the run ({until:?} s); give a larger step or a shorter --until",
+            checks.min_dt_fraction
+        ));
+    }
+    let steps = (until / dt).ceil();
+    if steps > checks.max_steps as f64 {
+        return Err(format!(
+            "{dt_from} {dt:?} s over {until:?} s makes {steps:.0} steps, more than the budget of {} ([checks] max_steps); give a larger step or a shorter --until",
+            checks.max_steps
+        ));
+    }
+    Ok(())
+}
+
+/// Where the loop stopped: reason, message, wall time of the loop (s).
+pub struct Stop {
+    pub reason: StopReason,
+    pub message: String,
+    pub wall_time_s: f64,
+}
+
+fn deployed_message(sim: &Simulator) -> String {
+    let (m, s) = (sim.model(), sim.state());
+    let t = s.deploy_time_s.unwrap_or(0.0);
+    if s.locks.is_empty() {
+        return "deployed: every sleeve was latched at the start".into();
+    }
+    let open = m.locks.iter().filter(|&&e| !s.locked[e]).count();
+    if open == 0 {
+        format!("deployed at t = {t:.6} s: every sleeve latched")
+    } else {
+        format!(
+            "deployed at t = {t:.6} s: rigid (no mechanism left) with {open} of {} sleeves not latched",
+            m.locks.len()
+        )
+    }
+}
+
+/// Steps `sim` until it deploys, reaches the end time, stalls, fails a
+/// check or a step, runs out of steps or wall time, or `obs` stops it.
+pub fn run_loop(
+    sim: &mut Simulator,
+    checks: &RunChecks,
+    limits: RunLimits,
+    obs: &mut dyn RunObserver,
+) -> Stop {
+    let (dt, until) = (limits.dt_s, limits.until_s);
+    let start = Instant::now();
+    sim.set_step_limits(StepLimits {
+        deadline: limits
+            .max_wall_s
+            .map(|limit| start + Duration::from_secs_f64(limit)),
+        cancel: limits.cancel.clone(),
+    });
+    let interrupted = |t_s: f64| {
+        (
+            StopReason::Interrupted,
+            format!("interrupted by a signal at t = {t_s:.6} s"),
+        )
+    };
+    let wall_limit = |t_s: f64| {
+        (
+            StopReason::Error,
+            format!(
+                "the wall-clock limit --max-wall-s {} s was reached at t = {t_s:.6} s",
+                limits.max_wall_s.unwrap_or(0.0)
+            ),
+        )
+    };
+    let mut stall = StallWatch::new(sim.model(), checks);
+    let mut held = HeldShortWatch::new(sim.model(), checks);
+    let (reason, message) = loop {
+        let (m, s) = (sim.model(), sim.state());
+        if let Some(msg) = checks::jammed(m, s, checks) {
+            break (StopReason::Stalled, msg);
+        }
+        if s.deployed {
+            break (StopReason::Deployed, deployed_message(sim));
+        }
+        if s.t_s >= until - 1e-9 * dt {
+            break if limits.until_asked {
+                (
+                    StopReason::Until,
+                    format!("reached --until {until} s, not deployed"),
+                )
+            } else {
+                (
+                    StopReason::EndTime,
+                    format!(
+                        "reached the model's end_time_s = {until} s without deploying; {}",
+                        checks::unlatched_summary(m, s)
+                    ),
+                )
+            };
+        }
+        if limits
+            .cancel
+            .as_ref()
+            .is_some_and(|c| c.load(Ordering::SeqCst))
+        {
+            break interrupted(s.t_s);
+        }
+        if let Some(limit) = limits.max_wall_s {
+            if start.elapsed().as_secs_f64() > limit {
+                break wall_limit(s.t_s);
+            }
+        }
+        if s.steps >= checks.max_steps {
+            break (
+                StopReason::Error,
+                format!(
+                    "the step budget of {} steps ([checks] max_steps) was used up at t = {:.6} s",
+                    checks.max_steps, s.t_s
+                ),
+            );
+        }
+        let h = dt.min(until - s.t_s);
+        if let Err(e) = sim.step(h) {
+            // (a limit reached inside the step)
+            if let SolverError::Stopped { t_s, why } = e {
+                break match why {
+                    StopWhy::Cancelled => interrupted(t_s),
+                    StopWhy::Deadline => wall_limit(t_s),
+                };
+            }
+            break (
+                StopReason::Error,
+                format!(
+                    "the step from t = {:.6} s failed: {e} (there: {} mechanism(s) left; {})",
+                    sim.state().t_s,
+                    sim.state().mechanisms,
+                    checks::unlatched_summary(sim.model(), sim.state())
+                ),
+            );
+        }
+        if let Err(e) = obs.after_step(sim) {
+            break (StopReason::Error, e);
+        }
+        let (m, s) = (sim.model(), sim.state());
+        if let Some(why) = checks::energy_unbalanced(m, s, checks) {
+            break (StopReason::Error, format!("at t = {:.6} s {why}", s.t_s));
+        }
+        if let Some(why) = stall.update(m, s) {
+            break (
+                StopReason::Stalled,
+                format!("stalled at t = {:.6} s: {why}", s.t_s),
+            );
+        }
+        if let Some(why) = held.update(m, s) {
+            break (
+                StopReason::Stalled,
+                format!("stalled at t = {:.6} s: {why}", s.t_s),
+            );
+        }
+        if let Err(e) = obs.after_checks(sim) {
+            break (StopReason::Error, e);
+        }
+    };
+    sim.set_step_limits(StepLimits::default());
+    Stop {
+        reason,
+        message,
+        wall_time_s: start.elapsed().as_secs_f64(),
+    }
+}
+
+/// The summary of what `sim` computed, stopped for `reason`.
+#[allow(clippy::too_many_arguments)]
+pub fn summarize(
+    sim: &Simulator,
+    checks: &RunChecks,
+    solver: &str,
+    dt_s: f64,
+    dof_initial: usize,
+    wall_time_s: f64,
+    reason: StopReason,
+    message: String,
+) -> RunSummary {
+    let (m, s) = (sim.model(), sim.state());
+    let ke = s.kinetic_energy_j(m);
+    let jam = checks::jammed(m, s, checks).is_some();
+    RunSummary {
+        model: m.name.clone(),
+        solver: solver.to_string(),
+        dt_s,
+        deployed: s.deployed && !jam,
+        deploy_time_s: if jam {
+            None
+        } else {
+            s.deploy_time_s.or(s.deployed.then_some(0.0))
+        },
+        time_s: s.t_s,
+        steps: s.steps,
+        wall_time_s,
+        final_error_rel: s.final_error_rel(m),
+        max_constraint_violation_m: s.max_violation_m,
+        energy_balance_rel_error: s.energy.balance_rel_error(ke),
+        dof_initial,
+        dof_final: s.mechanisms,
+        kinetic_energy_j: ke,
+        energy: s.energy.clone(),
+        locks: s.locks.clone(),
+        stop_reason: reason,
+        error: (reason == StopReason::Error).then(|| message.clone()),
+        stop_message: message,
+        solver_stats: sim.solver_stats().clone(),
+    }
+}
