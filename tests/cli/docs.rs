@@ -197,7 +197,8 @@ fn solver_page_names_every_setting_and_every_counter() {
     );
 }
 
-/// A fresh, empty directory holding a link to the bundled models.
+/// A fresh, empty directory holding links to the bundled models and to
+/// docs/ (the example sweep files).
 fn readme_dir() -> PathBuf {
     static N: AtomicUsize = AtomicUsize::new(0);
     let d = std::env::temp_dir().join(format!(
@@ -207,7 +208,9 @@ fn readme_dir() -> PathBuf {
     ));
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).expect("create temp dir");
-    std::os::unix::fs::symlink(manifest().join("models"), d.join("models")).expect("link models");
+    for sub in ["models", "docs"] {
+        std::os::unix::fs::symlink(manifest().join(sub), d.join(sub)).expect("link models, docs");
+    }
     d
 }
 
