@@ -63,6 +63,35 @@ pub struct LatchTransient {
     pub dissipated_j: f64,
 }
 
+/// How a cable's motor holds it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum MotorHold {
+    /// At the commanded tension (`State::cable_tension_cmd_n`).
+    Tension,
+    /// At the commanded speed: the tension is what holds it.
+    Tracking,
+    /// Speed-commanded, held at its tension limit (`max_tension_n`): the
+    /// structure resists more than the drive can pull (a stall, or a latch).
+    AtLimit,
+    /// Speed-commanded, at zero tension: the structure runs ahead of the cable.
+    Slack,
+}
+
+/// A drive cable's motor: tension control (the default) or speed control
+/// (`Simulator::set_cable_speed`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct MotorState {
+    /// The reel-in speed commanded (m/s; negative pays out), None under
+    /// tension control.
+    pub speed_cmd_m_s: Option<f64>,
+    pub hold: MotorHold,
+    /// While tracking: the cable length it holds at the state's time (m).
+    pub length_ref_m: f64,
+    /// The tension command it returns to when the speed command ends (N).
+    pub tension_cmd_n: f64,
+}
+
 /// Energy bookkeeping (J). Balance: kinetic + latch_spring_energy +
 /// element_spring_energy = cable_work + gravity_work - damping_loss -
 /// lock_loss - latch_damping_loss.
@@ -118,8 +147,13 @@ pub struct State {
     pub a: Vec<f64>,
     /// Per element; only lockable elements ever become true.
     pub locked: Vec<bool>,
-    /// Motor-end tension commanded per cable (N).
+    /// Motor-end tension commanded per cable (N); a speed-controlled motor
+    /// released to its limit or slack holds that tension here.
     pub cable_tension_cmd_n: Vec<f64>,
+    /// Per cable, its motor's mode (tension or speed control).
+    pub motors: Vec<MotorState>,
+    /// Per cable, the last evaluation: segment lengths and tensions (the
+    /// motor's tension is `segment_tension_n[0]`), wraps, sliding speeds.
     pub cables: Vec<CableEval>,
     /// Lagrange multipliers of the active rows (row order of the current Jacobian).
     /// With redundant rows the split is statically indeterminate: the dense
@@ -179,6 +213,24 @@ impl State {
             return 1.0;
         }
         (1.0 - rms(&self.x) / d0).clamp(0.0, 1.0)
+    }
+
+    /// The motor's tension on cable `ci` (N): the commanded one, or under
+    /// speed control the one that holds the speed.
+    pub fn motor_tension_n(&self, ci: usize) -> f64 {
+        self.cables[ci].segment_tension_n[0]
+    }
+
+    /// The cable length cable `ci`'s motor reeled in since the start (m;
+    /// negative where it paid out): L(X0) - L(X).
+    pub fn reeled_in_m(&self, model: &Model, ci: usize) -> f64 {
+        let c = &model.cables[ci];
+        c.length_m(&model.x0) - c.length_m(&self.x)
+    }
+
+    /// The cable's reel-in rate -Ldot (m/s).
+    pub fn reel_in_rate_m_s(&self, model: &Model, ci: usize) -> f64 {
+        -crate::solver::simulator::cable_length_rate(&model.cables[ci], &self.x, &self.v)
     }
 
     pub fn locks_engaged(&self, model: &Model) -> usize {

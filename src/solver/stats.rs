@@ -58,6 +58,10 @@ pub struct SolverStats {
     /// their transients.
     pub compliant_latches: u64,
     pub transient_substeps: u64,
+    /// Speed-controlled motors released from their speed (tension beyond
+    /// its limit or below zero, or a rigid latch), and engaged at it.
+    pub motor_releases: u64,
+    pub motor_engagements: u64,
 }
 
 /// Fallbacks by kind (see each field).

@@ -70,6 +70,8 @@ pub(super) struct Core {
     pub waiting: Vec<(usize, f64, f64)>,
     /// The compliant elements' buffers.
     pub element_springs: super::springs::ElementSprings,
+    /// Speed-controlled motors: which track in the current solve, and their buffers.
+    pub motor: super::motor::MotorWork,
     /// What the stepping loop did (the aux solver's work is not counted).
     pub stats: SolverStats,
 }
@@ -114,6 +116,7 @@ impl Core {
             springs: Vec::new(),
             waiting: Vec::new(),
             element_springs: super::springs::ElementSprings::new(model),
+            motor: super::motor::MotorWork::new(model, m),
             stats: SolverStats::default(),
         }
     }
@@ -126,6 +129,7 @@ impl Core {
             b.resize(m, 0.0);
         }
         self.newton.set_rows(m);
+        self.motor.set_rows(m);
     }
 
     /// The inverse masses the solves use: M^-1, or (M + h/2 C)^-1 inside an

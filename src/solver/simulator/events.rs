@@ -583,6 +583,7 @@ impl Simulator {
     pub(super) fn undo_latch(&mut self, mark: &LatchMark) {
         self.state.clone_from(&mark.state);
         self.core.set_pattern(&self.model, &self.state.locked);
+        self.core.motor.take_modes(&self.state);
         let stats = &mut self.core.stats;
         (
             stats.latches,

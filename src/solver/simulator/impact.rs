@@ -445,6 +445,7 @@ impl Simulator {
     /// the element pulls its joints together, the multiplier's sign), the
     /// energy it took (J) and its closing rate before (m/s).
     fn lock_rigidly(&mut self, elements: &[usize]) -> Result<Vec<(f64, f64, f64)>, SolverError> {
+        self.motors_release_for_impact();
         let (model, st) = (&self.model, &self.settings);
         for &e in elements {
             self.state.locked[e] = true;
@@ -499,7 +500,6 @@ impl Simulator {
         let moved_j = super::ledger::book_drive_work(
             model,
             &mut s.energy,
-            &s.cable_tension_cmd_n,
             &s.cables,
             &core.cables,
             &s.x,

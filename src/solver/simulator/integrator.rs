@@ -29,6 +29,15 @@ impl Core {
             } else {
                 None
             };
+            if self.motor_tracks(ci) {
+                // (a speed-controlled motor's tension is solved for:
+                // `motor_tensions`)
+                let sliding = std::mem::take(&mut self.friction_sliding[ci]);
+                let dir = self.lagged_friction.then_some(sliding.as_slice());
+                self.motor_unit_forces(model, ci, dir);
+                self.friction_sliding[ci] = sliding;
+                continue;
+            }
             cable::evaluate_with_direction(
                 c,
                 cmd[ci],
@@ -84,6 +93,9 @@ impl Core {
         self.applied_forces(model, cmd);
         self.jac.adot_xdot(model, &self.x, &self.v, &mut self.c);
         self.solve_accelerations(model)?;
+        if self.motor.any_tracking() {
+            self.motor_tensions(model)?;
+        }
         if self.a.iter().any(|v| !v.is_finite()) {
             return Err(SolverError::NonFinite("accelerations".into()));
         }
@@ -171,8 +183,16 @@ impl Core {
         iterated?;
         self.newmark_update(s, h);
         self.project_positions(model, st, base)?;
+        let motors = self.motor.any_tracking();
+        if motors {
+            self.motor.set_targets(s, h);
+            self.project_motor_positions(model, st, base)?;
+        }
         self.factor(model, base)?;
         self.project_velocities(model, st, base)?;
+        if motors {
+            self.project_motor_velocities(model)?;
+        }
         // A_{n+1} (and the segment tensions the energy ledger books) under the
         // friction directions the iteration converged with: evaluated with the
         // current directions instead, a pulley sliding slower than its slip

@@ -1,7 +1,8 @@
 //! Stage `ledger`: commits an accepted trial step to the state and books its
 //! energy. Over a step of length h (trapezoidal in the segment tensions and
 //! the damping velocity, exact for the motor whose tension is constant):
-//!   motor work  W_m = T_cmd (L_old - L_new)              (cable reeled in)
+//!   motor work  W_m = 1/2 (T_old + T_new) (L_old - L_new)  (cable reeled in;
+//!               exact for a commanded tension, constant over a step)
 //!   cable work  W_c = -sum_j 1/2 (T_j,old + T_j,new) (l_j,new - l_j,old)
 //!   friction    W_m - W_c                                 (lost at the pulleys)
 //!   damping     sum_i c 1/2 (v_i,old + v_i,new) dx_i
@@ -36,7 +37,6 @@ impl Simulator {
         book_drive_work(
             m,
             e,
-            &s.cable_tension_cmd_n,
             &s.cables,
             &c.cables,
             &s.x,
@@ -64,6 +64,12 @@ impl Simulator {
             tr.dissipated_j += dissipated;
             tr.impulse_ns += 0.5 * h * (tr.force_n + k * g1 + cd * r1);
             e.latch_spring_energy_j += 0.5 * k * g1 * g1;
+        }
+        // Tracking motors: the length they hold moves on with the sub-step.
+        for (mo, speed) in s.motors.iter_mut().zip(&c.motor.speed_m_s) {
+            if let Some(speed) = speed {
+                mo.length_ref_m -= speed * h;
+            }
         }
         let t0 = s.t_s;
         s.t_s += h;
@@ -94,7 +100,6 @@ impl Simulator {
         let work_j = book_drive_work(
             m,
             &mut scratch,
-            &s.cable_tension_cmd_n,
             &s.cables,
             &c.cables,
             &s.x,
@@ -138,13 +143,13 @@ fn damping_loss_j(m: &Model, (x0, v0): (&[f64], &[f64]), (x1, v1): (&[f64], &[f6
 
 /// Books the work of the drive and of gravity over a move of the joints from
 /// `x_old` to `x_new` (cable readings `old` and `new` at its ends) into the
-/// ledger, and returns it (J): motor work (the command is constant over a
-/// step: exact), the segments' work on the structure by the trapezoid, the
-/// pulley friction as their difference, and gravity's work.
+/// ledger, and returns it (J): motor work by the trapezoid in the motor's
+/// tension (exact for a commanded tension, constant over a step; a
+/// speed-controlled motor's varies), the segments' work on the structure by
+/// the trapezoid, the pulley friction as their difference, and gravity's work.
 pub(super) fn book_drive_work(
     m: &Model,
     e: &mut Energy,
-    cmd: &[f64],
     old: &[CableEval],
     new: &[CableEval],
     x_old: &[f64],
@@ -153,7 +158,9 @@ pub(super) fn book_drive_work(
     let mut work_j = 0.0;
     for (ci, cab) in m.cables.iter().enumerate() {
         let (old, new) = (&old[ci], &new[ci]);
-        let motor_j = cmd[ci] * (old.length_m - new.length_m);
+        let motor_j = 0.5
+            * (old.segment_tension_n[0] + new.segment_tension_n[0])
+            * (old.length_m - new.length_m);
         e.motor_work_j += motor_j;
         let mut seg_work = 0.0;
         for j in 0..cab.path.len() - 1 {

@@ -24,6 +24,7 @@ mod events;
 mod impact;
 mod integrator;
 mod ledger;
+mod motor;
 mod newton;
 mod projection;
 mod springs;
@@ -35,7 +36,8 @@ use super::jacobian::Jacobian;
 use super::linsolve::{SolveMode, SolverKind};
 use super::model::Model;
 use super::settings::SolverSettings;
-use super::state::{Energy, State};
+use super::state::{Energy, MotorHold, MotorState, State};
+pub use motor::length_rate as cable_length_rate;
 use super::stats::SolverStats;
 use super::{SolverError, StopWhy};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -152,6 +154,7 @@ impl Simulator {
         // (a reset in a compliant latch's transient: its spring goes with it)
         core.springs.clear();
         core.waiting.clear();
+        core.motor.take_modes(&state);
         core.set_pattern(model, &state.locked);
         core.x.copy_from_slice(&model.x0);
         if let Some((e, row, residual_m)) = model.initial_violation(st.initial_tol_m) {
@@ -248,7 +251,8 @@ impl Simulator {
         self.limits = limits;
     }
 
-    /// Sets a cable's motor-end tension from the next step on.
+    /// Sets a cable's motor-end tension from the next step on (a motor
+    /// under speed control returns to tension control).
     pub fn set_cable_tension(&mut self, cable: usize, tension_n: f64) -> Result<(), SolverError> {
         let c = self
             .model
@@ -261,6 +265,8 @@ impl Simulator {
                 c.name, c.max_tension_n
             )));
         }
+        self.set_cable_speed(cable, None)?;
+        self.state.motors[cable].tension_cmd_n = tension_n;
         if self.state.cable_tension_cmd_n[cable] != tension_n {
             self.state.cable_tension_cmd_n[cable] = tension_n;
             self.command_changed = true;
@@ -452,6 +458,10 @@ impl Simulator {
                     continue;
                 }
                 Err(e) => return Err(e),
+            }
+            if self.motors_after_substep()? {
+                h_try = h_try.min(h);
+                continue;
             }
             // (doubling h multiplies the miss by 8 and its budget by 2)
             if budget_used <= 0.25 {
@@ -656,6 +666,16 @@ fn blank_state(model: &Model) -> State {
         a: vec![0.0; n],
         locked: vec![false; model.elements.len()],
         cable_tension_cmd_n: model.cables.iter().map(|c| c.tension_n).collect(),
+        motors: model
+            .cables
+            .iter()
+            .map(|c| MotorState {
+                speed_cmd_m_s: None,
+                hold: MotorHold::Tension,
+                length_ref_m: c.length_m(&model.x0),
+                tension_cmd_n: c.tension_n,
+            })
+            .collect(),
         cables: model.cables.iter().map(CableEval::for_cable).collect(),
         lambda: Vec::new(),
         energy: Energy::default(),

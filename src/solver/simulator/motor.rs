@@ -1,0 +1,525 @@
+//! Stage `motor`: speed-controlled drive motors, a rheonomic constraint on the
+//! cable length whose multiplier is the motor tension.
+//!
+//! A motor that tracks its command reels its cable in at the speed s (m/s;
+//! negative pays out): the cable length L(X) = sum_j |x_{p_j+1} - x_{p_j}|
+//! follows L(t) = L_e - s (t - t_e) from the instant t_e it engaged at the
+//! length L_e. Its tension T is the unknown that holds it:
+//! - accelerations: the applied forces are Q_0 + sum_k T_k g_k, with g_k the
+//!   joint forces of a unit motor tension (the segment tensions of the
+//!   capstan law scaled to T = 1, friction included). The constrained
+//!   accelerations are linear in T: A = A_0 + sum_k T_k A_1k, A_1k the
+//!   response to g_k alone (one more solve with the same factorization).
+//!   Lddot = grad L . A + (convective term) = 0 gives the k x k system
+//!   sum_k (grad L_i . A_1k) T_k = -Lddot_i(A_0).
+//! - positions and velocities, after the structure's own projection:
+//!   mass-orthogonal corrections along d_k, the structure's response to the
+//!   force grad L_k (d_k lies in its tangent space, A d_k = 0), onto
+//!   L_i(X) = L_i(t) and Ldot_i = -s_i.
+//!
+//! A real drive's current limit caps the tension at the cable's
+//! `max_tension_n`: a tracking motor whose tension leaves [0, T_max] at an
+//! accepted sub-step releases to tension control at the limit (`AtLimit`,
+//! stalled or slowed) or at zero (`Slack`, the structure runs ahead), and so
+//! does every tracking motor at a rigid latch (a drive cannot deliver an
+//! impulse). A released motor engages again once its cable runs at the
+//! commanded speed; the velocities then jump onto Ldot = -s (the drive's
+//! impulsive tension, its work the jump's change of kinetic energy, booked
+//! as motor and cable work).
+
+use super::core::Core;
+use super::Simulator;
+use crate::solver::cable;
+use crate::solver::elements::at;
+use crate::solver::model::{Cable, Model};
+use crate::solver::settings::SolverSettings;
+use crate::solver::state::{kinetic_energy_j, MotorHold, State};
+use crate::solver::SolverError;
+
+/// Buffers of the motors' solves, reused across steps.
+#[derive(Debug, Default)]
+pub(super) struct MotorWork {
+    /// Per cable: the reel-in speed while it tracks in the trial (m/s), else None.
+    pub speed_m_s: Vec<Option<f64>>,
+    /// Per cable: the length it holds at the trial's end (m), while it tracks.
+    pub target_m: Vec<f64>,
+    /// Per cable: joint forces of a unit motor tension (or grad L), and the
+    /// structure's response to them (accelerations, multipliers).
+    g: Vec<Vec<f64>>,
+    resp: Vec<Vec<f64>>,
+    resp_lambda: Vec<Vec<f64>>,
+    a0: Vec<f64>,
+    lambda0: Vec<f64>,
+    q_save: Vec<f64>,
+    c_save: Vec<f64>,
+    /// The k x k system (row-major) and its right side / solution, in the
+    /// order of the tracking cables.
+    mat: Vec<f64>,
+    rhs: Vec<f64>,
+    order: Vec<usize>,
+}
+
+impl MotorWork {
+    pub fn new(model: &Model, rows: usize) -> MotorWork {
+        let (n, nc) = (model.n_coords(), model.cables.len());
+        MotorWork {
+            speed_m_s: vec![None; nc],
+            target_m: vec![0.0; nc],
+            g: vec![vec![0.0; n]; nc],
+            resp: vec![vec![0.0; n]; nc],
+            resp_lambda: vec![vec![0.0; rows]; nc],
+            a0: vec![0.0; n],
+            lambda0: vec![0.0; rows],
+            q_save: vec![0.0; n],
+            c_save: vec![0.0; rows],
+            mat: Vec::with_capacity(nc * nc),
+            rhs: Vec::with_capacity(nc),
+            order: Vec::with_capacity(nc),
+        }
+    }
+
+    pub fn set_rows(&mut self, rows: usize) {
+        for b in self.resp_lambda.iter_mut() {
+            b.resize(rows, 0.0);
+        }
+        self.lambda0.resize(rows, 0.0);
+        self.c_save.resize(rows, 0.0);
+    }
+
+    pub fn any_tracking(&self) -> bool {
+        self.speed_m_s.iter().any(Option::is_some)
+    }
+
+    /// Takes the tracking motors of the state (their speeds), for solves at
+    /// the state's time.
+    pub fn take_modes(&mut self, s: &State) {
+        for (w, m) in self.speed_m_s.iter_mut().zip(&s.motors) {
+            *w = match m.hold {
+                MotorHold::Tracking => m.speed_cmd_m_s,
+                _ => None,
+            };
+        }
+    }
+
+    /// The lengths the tracking motors hold at the end of a trial of length
+    /// h from the state: L_ref - s h.
+    pub fn set_targets(&mut self, s: &State, h: f64) {
+        for (ci, m) in s.motors.iter().enumerate() {
+            if let Some(speed) = self.speed_m_s[ci] {
+                self.target_m[ci] = m.length_ref_m - speed * h;
+            }
+        }
+    }
+}
+
+/// grad L . w: the cable length's rate under joint velocities w (m/s), or
+/// grad L . a for any joint vector a.
+pub fn length_rate(c: &Cable, x: &[f64], w: &[f64]) -> f64 {
+    c.path
+        .windows(2)
+        .map(|s| {
+            let d = at(x, s[1]) - at(x, s[0]);
+            d.dot(&(at(w, s[1]) - at(w, s[0]))) / d.norm()
+        })
+        .sum()
+}
+
+/// Lddot = sum_j e_j . (a_q - a_p) + (|w_j|^2 - (e_j . w_j)^2) / l_j (m/s^2).
+pub fn length_accel(c: &Cable, x: &[f64], v: &[f64], a: &[f64]) -> f64 {
+    c.path
+        .windows(2)
+        .map(|s| {
+            let d = at(x, s[1]) - at(x, s[0]);
+            let l = d.norm();
+            let e = d / l;
+            let w = at(v, s[1]) - at(v, s[0]);
+            e.dot(&(at(a, s[1]) - at(a, s[0]))) + (w.norm_squared() - e.dot(&w).powi(2)) / l
+        })
+        .sum()
+}
+
+/// q += scale grad L.
+fn add_length_gradient(c: &Cable, x: &[f64], scale: f64, q: &mut [f64]) {
+    for s in c.path.windows(2) {
+        let (p, r) = (s[0], s[1]);
+        let d = at(x, r) - at(x, p);
+        let e = d * (scale / d.norm());
+        for k in 0..3 {
+            q[3 * r + k] += e[k];
+            q[3 * p + k] -= e[k];
+        }
+    }
+}
+
+/// Solves the k x k system `mat` y = `rhs` in place (Gaussian elimination,
+/// partial pivoting); false if a pivot is below `tiny` times the largest
+/// diagonal (a motor the structure cannot move, or two that move it alike).
+fn solve_small(mat: &mut [f64], rhs: &mut [f64], tiny: f64) -> bool {
+    let k = rhs.len();
+    let scale = (0..k).map(|i| mat[i * k + i].abs()).fold(0.0, f64::max);
+    for col in 0..k {
+        let p = (col..k)
+            .max_by(|&a, &b| mat[a * k + col].abs().total_cmp(&mat[b * k + col].abs()))
+            .unwrap_or(col);
+        if !(mat[p * k + col].abs() > tiny * scale) {
+            return false;
+        }
+        if p != col {
+            for j in 0..k {
+                mat.swap(p * k + j, col * k + j);
+            }
+            rhs.swap(p, col);
+        }
+        for r in col + 1..k {
+            let f = mat[r * k + col] / mat[col * k + col];
+            for j in col..k {
+                mat[r * k + j] -= f * mat[col * k + j];
+            }
+            rhs[r] -= f * rhs[col];
+        }
+    }
+    for col in (0..k).rev() {
+        let mut sum = rhs[col];
+        for j in col + 1..k {
+            sum -= mat[col * k + j] * rhs[j];
+        }
+        rhs[col] = sum / mat[col * k + col];
+    }
+    true
+}
+
+impl Core {
+    /// Whether cable `ci` tracks a speed in the current solve.
+    pub fn motor_tracks(&self, ci: usize) -> bool {
+        self.motor.speed_m_s[ci].is_some()
+    }
+
+    /// The joint forces of a unit motor tension on tracking cable `ci` at
+    /// the trial (x, v), into the motor's buffer (its segment tensions per
+    /// unit motor tension stay in `cables[ci]` until the solve scales them).
+    pub fn motor_unit_forces(&mut self, model: &Model, ci: usize, direction: Option<&[f64]>) {
+        let c = &model.cables[ci];
+        cable::evaluate_with_direction(c, 1.0, &self.x, &self.v, None, direction, &mut self.cables[ci]);
+        let g = &mut self.motor.g[ci];
+        g.fill(0.0);
+        cable::add_forces(c, &self.cables[ci], &self.x, g);
+    }
+
+    /// The tracking motors' tensions, with the accelerations `a_0` and
+    /// multipliers of the other forces already solved in `a`, `lambda`: one
+    /// more solve per motor (its unit forces), then the k x k system for
+    /// Lddot = 0 (module doc). `a`, `lambda`, `q` and the cable readings end
+    /// with the motors' tensions in them.
+    pub fn motor_tensions(&mut self, model: &Model) -> Result<(), SolverError> {
+        let mw = &mut self.motor;
+        mw.a0.copy_from_slice(&self.a);
+        let m = self.jac.nrows;
+        mw.lambda0[..m].copy_from_slice(&self.lambda[..m]);
+        mw.q_save.copy_from_slice(&self.q);
+        mw.c_save[..m].copy_from_slice(&self.c[..m]);
+        mw.order.clear();
+        mw.order
+            .extend((0..model.cables.len()).filter(|&ci| mw.speed_m_s[ci].is_some()));
+        for oi in 0..self.motor.order.len() {
+            let ci = self.motor.order[oi];
+            self.q.copy_from_slice(&self.motor.g[ci]);
+            self.c[..m].fill(0.0);
+            self.solve_accelerations(model)?;
+            self.motor.resp[ci].copy_from_slice(&self.a);
+            self.motor.resp_lambda[ci][..m].copy_from_slice(&self.lambda[..m]);
+        }
+        let mw = &mut self.motor;
+        self.q.copy_from_slice(&mw.q_save);
+        self.c[..m].copy_from_slice(&mw.c_save[..m]);
+        let k = mw.order.len();
+        mw.mat.clear();
+        mw.rhs.clear();
+        for &ci in &mw.order {
+            let c = &model.cables[ci];
+            for &ck in &mw.order {
+                mw.mat.push(length_rate(c, &self.x, &mw.resp[ck]));
+            }
+            mw.rhs.push(-length_accel(c, &self.x, &self.v, &mw.a0));
+        }
+        if !solve_small(&mut mw.mat, &mut mw.rhs, 1e-12) {
+            return Err(SolverError::Invalid(format!(
+                "the structure cannot move along the cable `{}` of a speed-controlled motor \
+                 (it is locked up or at a singular configuration)",
+                model.cables[mw.order[0]].name
+            )));
+        }
+        self.a.copy_from_slice(&mw.a0);
+        self.lambda[..m].copy_from_slice(&mw.lambda0[..m]);
+        for oi in 0..k {
+            let (ci, t) = (mw.order[oi], mw.rhs[oi]);
+            for (a, r) in self.a.iter_mut().zip(&mw.resp[ci]) {
+                *a += t * r;
+            }
+            for (l, r) in self.lambda[..m].iter_mut().zip(&mw.resp_lambda[ci][..m]) {
+                *l += t * r;
+            }
+            for (q, g) in self.q.iter_mut().zip(&mw.g[ci]) {
+                *q += t * g;
+            }
+            for s in self.cables[ci].segment_tension_n.iter_mut() {
+                *s *= t;
+            }
+        }
+        Ok(())
+    }
+
+    /// The responses d_k of the structure, at the current factorization
+    /// (plain masses), to the forces grad L_k of the tracking cables, into
+    /// `resp`, and the k x k matrix grad L_i . d_k into `mat` (`order` the
+    /// tracking cables).
+    fn motor_directions(&mut self, model: &Model) -> Result<(), SolverError> {
+        debug_assert!(self.implicit_h.is_none(), "projections use the plain masses");
+        let m = self.jac.nrows;
+        self.motor.order.clear();
+        for ci in 0..model.cables.len() {
+            if self.motor.speed_m_s[ci].is_some() {
+                self.motor.order.push(ci);
+            }
+        }
+        for oi in 0..self.motor.order.len() {
+            let ci = self.motor.order[oi];
+            self.q.fill(0.0);
+            add_length_gradient(&model.cables[ci], &self.x, 1.0, &mut self.q);
+            self.c[..m].fill(0.0);
+            self.solve_accelerations(model)?;
+            self.motor.resp[ci].copy_from_slice(&self.a);
+        }
+        let mw = &mut self.motor;
+        mw.mat.clear();
+        for &ci in &mw.order {
+            for &ck in &mw.order {
+                mw.mat.push(length_rate(&model.cables[ci], &self.x, &mw.resp[ck]));
+            }
+        }
+        Ok(())
+    }
+
+    /// Subtracts sum_k y_k d_k from `x` (positions) or `v` with y the
+    /// solution of the k x k system for the residuals in `rhs`.
+    fn motor_correct(&mut self, model: &Model, positions: bool) -> Result<(), SolverError> {
+        let mw = &mut self.motor;
+        if !solve_small(&mut mw.mat, &mut mw.rhs, 1e-12) {
+            return Err(SolverError::Invalid(format!(
+                "the structure cannot move along the cable `{}` of a speed-controlled motor",
+                model.cables[mw.order[0]].name
+            )));
+        }
+        let target = if positions { &mut self.x } else { &mut self.v };
+        for (oi, &ci) in mw.order.iter().enumerate() {
+            for (t, d) in target.iter_mut().zip(&mw.resp[ci]) {
+                *t -= mw.rhs[oi] * d;
+            }
+        }
+        Ok(())
+    }
+
+    /// Positions onto L_i(X) = target_i of the tracking motors, with the
+    /// structure's constraints holding (its projection after each correction),
+    /// until |L_i - target_i| <= `projection_tol_m`.
+    pub fn project_motor_positions(
+        &mut self,
+        model: &Model,
+        st: &SolverSettings,
+        mode: crate::solver::linsolve::SolveMode,
+    ) -> Result<(), SolverError> {
+        for _ in 0..st.projection_max_iterations {
+            let worst = (0..model.cables.len())
+                .filter(|&ci| self.motor.speed_m_s[ci].is_some())
+                .map(|ci| (model.cables[ci].length_m(&self.x) - self.motor.target_m[ci]).abs())
+                .fold(0.0, f64::max);
+            if worst <= st.projection_tol_m {
+                return Ok(());
+            }
+            self.factor(model, mode)?;
+            self.motor_directions(model)?;
+            let mw = &mut self.motor;
+            mw.rhs.clear();
+            for &ci in &mw.order {
+                mw.rhs.push(model.cables[ci].length_m(&self.x) - mw.target_m[ci]);
+            }
+            self.motor_correct(model, true)?;
+            self.project_positions(model, st, mode)?;
+        }
+        Err(SolverError::Projection {
+            violation_m: (0..model.cables.len())
+                .filter(|&ci| self.motor.speed_m_s[ci].is_some())
+                .map(|ci| (model.cables[ci].length_m(&self.x) - self.motor.target_m[ci]).abs())
+                .fold(0.0, f64::max),
+        })
+    }
+
+    /// Velocities onto Ldot_i = -s_i of the tracking motors (one correction:
+    /// exact, the constraint is linear in V and A d_k = 0), with the current
+    /// factorization at x.
+    pub fn project_motor_velocities(&mut self, model: &Model) -> Result<(), SolverError> {
+        self.motor_directions(model)?;
+        let mw = &mut self.motor;
+        mw.rhs.clear();
+        for &ci in &mw.order {
+            let speed = mw.speed_m_s[ci].unwrap_or(0.0);
+            mw.rhs.push(length_rate(&model.cables[ci], &self.x, &self.v) + speed);
+        }
+        self.motor_correct(model, false)
+    }
+}
+
+impl Simulator {
+    /// Sets a cable's motor to reel in at `speed_m_s` (m/s; negative pays
+    /// out) from the next step on, its tension up to the cable's
+    /// `max_tension_n`; None returns it to tension control at its last
+    /// commanded tension.
+    pub fn set_cable_speed(&mut self, cable: usize, speed_m_s: Option<f64>) -> Result<(), SolverError> {
+        let c = self
+            .model
+            .cables
+            .get(cable)
+            .ok_or_else(|| SolverError::Invalid(format!("no cable with index {cable}")))?;
+        if let Some(s) = speed_m_s {
+            if !s.is_finite() {
+                return Err(SolverError::Invalid(format!(
+                    "speed {s} m/s for cable `{}` must be finite",
+                    c.name
+                )));
+            }
+            if c.line_density_kg_per_m > 0.0 {
+                return Err(SolverError::Invalid(format!(
+                    "cable `{}` has a line density: speed control takes massless cables",
+                    c.name
+                )));
+            }
+        }
+        let m = &mut self.state.motors[cable];
+        if m.speed_cmd_m_s == speed_m_s {
+            return Ok(());
+        }
+        match speed_m_s {
+            None => {
+                m.speed_cmd_m_s = None;
+                m.hold = MotorHold::Tension;
+                self.state.cable_tension_cmd_n[cable] = m.tension_cmd_n;
+            }
+            Some(s) => {
+                if m.speed_cmd_m_s.is_none() {
+                    m.tension_cmd_n = self.state.cable_tension_cmd_n[cable];
+                }
+                m.speed_cmd_m_s = Some(s);
+                if m.hold == MotorHold::Tracking {
+                    // a new speed: the velocities jump to it
+                    m.hold = MotorHold::AtLimit;
+                }
+                if m.hold == MotorHold::Tension {
+                    m.hold = MotorHold::AtLimit;
+                }
+                self.motor_engage(cable)?;
+            }
+        }
+        self.core.motor.take_modes(&self.state);
+        self.command_changed = true;
+        Ok(())
+    }
+
+    /// Engages released motor `ci` at the state: the velocities jump onto
+    /// Ldot = -s (the drive's impulsive tension; the jump's change of kinetic
+    /// energy booked as its work), the length it holds from here on is the
+    /// state's. A structure that cannot move along the cable leaves it at
+    /// its tension limit.
+    fn motor_engage(&mut self, ci: usize) -> Result<(), SolverError> {
+        let (model, core) = (&self.model, &mut self.core);
+        let s = &mut self.state;
+        let speed = s.motors[ci].speed_cmd_m_s.expect("a speed command");
+        core.x.copy_from_slice(&s.x);
+        core.v.copy_from_slice(&s.v);
+        core.factor(model, crate::solver::linsolve::SolveMode::Basic)?;
+        // (this motor alone: the others keep their velocities' rates)
+        for (j, w) in core.motor.speed_m_s.iter_mut().enumerate() {
+            *w = (j == ci).then_some(speed);
+        }
+        let moved = core.project_motor_velocities(model);
+        match moved {
+            Ok(()) => {
+                let jump_j = kinetic_energy_j(model, &core.v) - kinetic_energy_j(model, &s.v);
+                s.energy.motor_work_j += jump_j;
+                s.energy.cable_work_j += jump_j;
+                s.v.copy_from_slice(&core.v);
+                s.motors[ci].hold = MotorHold::Tracking;
+                s.motors[ci].length_ref_m = model.cables[ci].length_m(&s.x);
+                core.stats.motor_engagements += 1;
+            }
+            Err(SolverError::Invalid(_)) => {
+                s.motors[ci].hold = MotorHold::AtLimit;
+                s.cable_tension_cmd_n[ci] = model.cables[ci].max_tension_n;
+            }
+            Err(e) => return Err(e),
+        }
+        core.motor.take_modes(s);
+        core.prev_h = None;
+        Ok(())
+    }
+
+    /// Releases every tracking motor to its tension limit (before a rigid
+    /// latch's velocity jump: a drive cannot deliver an impulse).
+    pub(super) fn motors_release_for_impact(&mut self) {
+        let mut any = false;
+        for (ci, m) in self.state.motors.iter_mut().enumerate() {
+            if m.hold == MotorHold::Tracking {
+                m.hold = MotorHold::AtLimit;
+                self.state.cable_tension_cmd_n[ci] = self.model.cables[ci].max_tension_n;
+                self.core.stats.motor_releases += 1;
+                any = true;
+            }
+        }
+        if any {
+            self.core.motor.take_modes(&self.state);
+        }
+    }
+
+    /// After an accepted sub-step: a tracking motor whose tension left
+    /// [0, T_max] releases (to the limit, or slack); a released one whose
+    /// cable runs at the commanded speed again engages. Either restarts the
+    /// accelerations. Returns whether any motor changed.
+    pub(super) fn motors_after_substep(&mut self) -> Result<bool, SolverError> {
+        let mut changed = false;
+        for ci in 0..self.model.cables.len() {
+            let m = &self.state.motors[ci];
+            let Some(speed) = m.speed_cmd_m_s else { continue };
+            let c = &self.model.cables[ci];
+            let reel_in = -length_rate(c, &self.state.x, &self.state.v);
+            match m.hold {
+                MotorHold::Tracking => {
+                    let t = self.state.cables[ci].segment_tension_n[0];
+                    let (hold, cmd) = if t > c.max_tension_n {
+                        (MotorHold::AtLimit, c.max_tension_n)
+                    } else if t < 0.0 {
+                        (MotorHold::Slack, 0.0)
+                    } else {
+                        continue;
+                    };
+                    self.state.motors[ci].hold = hold;
+                    self.state.cable_tension_cmd_n[ci] = cmd;
+                    self.core.stats.motor_releases += 1;
+                    self.core.motor.take_modes(&self.state);
+                    changed = true;
+                }
+                MotorHold::AtLimit if reel_in >= speed => {
+                    self.motor_engage(ci)?;
+                    changed = true;
+                }
+                MotorHold::Slack if reel_in <= speed => {
+                    self.motor_engage(ci)?;
+                    changed = true;
+                }
+                _ => {}
+            }
+        }
+        if changed {
+            self.core.prev_h = None;
+            self.restart_accelerations()?;
+        }
+        Ok(changed)
+    }
+}
