@@ -79,6 +79,22 @@ pub struct RunSummary {
     /// What the solver did: steps, sub-steps, iterations, factorizations,
     /// solves, fallbacks by kind, latch searches.
     pub solver_stats: SolverStats,
+    /// Per drive cable, its motor at the end of the run.
+    pub motors: Vec<MotorSummary>,
+}
+
+/// A drive cable's motor at the end of a run.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct MotorSummary {
+    pub cable: String,
+    /// `tension` (commanded tension), `tracking` (at the commanded speed),
+    /// `at_limit` (speed-commanded, at its tension limit), `slack`.
+    pub mode: crate::solver::state::MotorHold,
+    /// The commanded reel-in speed (m/s), null under tension control.
+    pub speed_cmd_m_s: Option<f64>,
+    /// The motor's tension (N) and the cable it reeled in since the start (m).
+    pub tension_n: f64,
+    pub reeled_in_m: f64,
 }
 
 /// How long a run goes: the step, the end time, whether that end time was
@@ -332,5 +348,17 @@ pub fn summarize(
         error: (reason == StopReason::Error).then(|| message.clone()),
         stop_message: message,
         solver_stats: sim.solver_stats().clone(),
+        motors: m
+            .cables
+            .iter()
+            .enumerate()
+            .map(|(ci, c)| MotorSummary {
+                cable: c.name.clone(),
+                mode: s.motors[ci].hold,
+                speed_cmd_m_s: s.motors[ci].speed_cmd_m_s,
+                tension_n: s.motor_tension_n(ci),
+                reeled_in_m: s.reeled_in_m(m, ci),
+            })
+            .collect(),
     }
 }

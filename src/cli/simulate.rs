@@ -12,6 +12,7 @@ use super::output::{check_outputs, write_atomic, AtomicFile};
 use super::{interrupt, make_simulator_from, plot, Failure, SolverArg};
 use crate::run::{self, RunLimits, RunObserver};
 use crate::solver::checks;
+use crate::solver::state::MotorHold;
 use crate::solver::{LockEvent, Simulator};
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
@@ -52,6 +53,10 @@ pub struct SimulateArgs {
     latch_plot: Option<PathBuf>,
     #[arg(long, value_enum, default_value_t = SolverArg::Sparse)]
     solver: SolverArg,
+    /// Drive a cable's motor at a reel-in speed (m/s; negative pays out) instead of its
+    /// tension, up to its max_tension_n: `CABLE=SPEED`, or `SPEED` for every cable. Repeatable.
+    #[arg(long, value_name = "[CABLE=]M_S", allow_negative_numbers = true)]
+    motor_speed: Vec<String>,
     /// Record the run as a ROS 2 MCAP file: the node's topics, log time = simulation time.
     #[cfg(feature = "ros")]
     #[arg(long, value_name = "FILE.mcap")]
@@ -77,6 +82,44 @@ fn check_positive(name: &str, v: Option<f64>) -> Result<(), Failure> {
         ))),
         _ => Ok(()),
     }
+}
+
+/// `--motor-speed [CABLE=]M_S` values: (cable index, speed), every cable
+/// for a bare speed.
+fn motor_speeds(sim: &Simulator, args: &[String]) -> Result<Vec<(usize, f64)>, String> {
+    let cables = &sim.model().cables;
+    let mut out = Vec::new();
+    for a in args {
+        let (name, speed) = match a.split_once('=') {
+            Some((n, s)) => (Some(n.trim()), s.trim()),
+            None => (None, a.trim()),
+        };
+        let speed: f64 = speed
+            .parse()
+            .ok()
+            .filter(|v: &f64| v.is_finite())
+            .ok_or_else(|| format!("--motor-speed {a}: `{speed}` is not a finite speed in m/s"))?;
+        match name {
+            Some(n) => {
+                let ci = cables.iter().position(|c| c.name == n).ok_or_else(|| {
+                    format!(
+                        "--motor-speed {a}: the model has no cable `{n}` (its cables: {})",
+                        cables
+                            .iter()
+                            .map(|c| c.name.as_str())
+                            .collect::<Vec<_>>()
+                            .join(", ")
+                    )
+                })?;
+                out.push((ci, speed));
+            }
+            None if cables.is_empty() => {
+                return Err(format!("--motor-speed {a}: the model has no cable"))
+            }
+            None => out.extend((0..cables.len()).map(|ci| (ci, speed))),
+        }
+    }
+    Ok(out)
 }
 
 fn csv_header(sim: &Simulator) -> String {
@@ -172,9 +215,21 @@ pub fn run(a: SimulateArgs) -> Result<(), Failure> {
     let dt_from = if a.dt.is_some() { "--dt" } else { "dt_s" };
     run::check_step_count(dt, until, dt_from, &checks)
         .map_err(|m| Failure::input(format!("{}: {m}", a.model.display())))?;
+    let speeds = motor_speeds(&sim, &a.motor_speed)
+        .map_err(|m| Failure::input(format!("{}: {m}", a.model.display())))?;
+    for &(ci, speed) in &speeds {
+        sim.set_cable_speed(ci, Some(speed))
+            .map_err(|e| Failure::input(format!("{}: --motor-speed: {e}", a.model.display())))?;
+    }
     // A model that cannot deploy is refused when the run is to deploy it;
-    // with --until (a run for a time) it is a warning.
-    if let Some(why) = checks::cannot_deploy(sim.model(), sim.state()) {
+    // with --until (a run for a time) it is a warning. (Its drive is the
+    // cable tension: a speed-controlled motor moves what it can move.)
+    let cannot = if speeds.is_empty() {
+        checks::cannot_deploy(sim.model(), sim.state())
+    } else {
+        None
+    };
+    if let Some(why) = cannot {
         if a.until.is_none() {
             return Err(Failure::input(format!(
                 "{}: the model cannot deploy: {why}; fix the model (`truss-deploy analyze` \
@@ -371,6 +426,22 @@ fn print_summary(s: &SimulateJson) {
         "energy           motor {:.6e} J, friction {:.3e} J, damping {:.3e} J, latches {:.6e} J, kinetic {:.6e} J, elastic {:.3e} J; balance error {:.2e}",
         s.energy.motor_work_j, s.energy.friction_loss_j, s.energy.damping_loss_j, s.energy.lock_loss_j + s.energy.latch_damping_loss_j, s.kinetic_energy_j, s.energy.latch_spring_energy_j + s.energy.element_spring_energy_j, s.energy_balance_rel_error
     );
+    for mo in &s.motors {
+        if let Some(speed) = mo.speed_cmd_m_s {
+            say!(
+                "motor {:<10} {speed} m/s commanded, {}, tension {:.6e} N, reeled in {:.9} m",
+                mo.cable,
+                match mo.mode {
+                    MotorHold::Tracking => "at that speed",
+                    MotorHold::AtLimit => "held at its tension limit",
+                    MotorHold::Slack => "slack (the structure ran ahead)",
+                    MotorHold::Tension => "under tension control",
+                },
+                mo.tension_n,
+                mo.reeled_in_m
+            );
+        }
+    }
     say!(
         "mechanisms       {} at start, {} at end",
         s.dof_initial,

@@ -6,6 +6,7 @@ mod cli_plots;
 mod docs;
 mod malformed_corpus;
 mod model_errors;
+mod motor_speed;
 mod run_outcomes;
 mod sweep;
 

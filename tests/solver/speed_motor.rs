@@ -105,7 +105,10 @@ fn a_frictionless_one_unit_mast_follows_the_speed_and_its_tension_the_closed_for
     let l_d = generate::mast_cable_length(1, p.rod_length_m, p.deploy_deg.to_radians());
     let t_d = (l0 - l_d) / speed;
     let t = sim.state().deploy_time_s.unwrap();
-    assert!((t - t_d).abs() < 1e-6, "deployed at {t} s, the kinematics say {t_d} s");
+    assert!(
+        (t - t_d).abs() < 1e-6,
+        "deployed at {t} s, the kinematics say {t_d} s"
+    );
     assert_eq!(sim.state().motors[0].hold, MotorHold::AtLimit);
     assert!(sim.solver_stats().motor_releases >= 1);
 }
@@ -156,7 +159,11 @@ fn a_speed_controlled_mast_with_friction_balances_its_motor_work() {
          kinetic + losses {spent:.6e} J, rel {rel:.2e}, friction {:.3e} J, |L - (L0 - s t)| <= {worst_len:.2e} m",
         s.deploy_time_s, e.motor_work_j, e.friction_loss_j
     );
-    assert!(e.friction_loss_j > 1e-3 * e.motor_work_j, "friction took {}", e.friction_loss_j);
+    assert!(
+        e.friction_loss_j > 1e-3 * e.motor_work_j,
+        "friction took {}",
+        e.friction_loss_j
+    );
     assert!(rel < 1e-6, "motor work vs kinetic + losses: {rel:e}");
     assert!(s.energy.balance_rel_error(kinetic) < 1e-6);
     assert!(worst_len < 1e-9, "{worst_len}");
@@ -191,7 +198,10 @@ fn the_tension_limit_stops_a_motor_that_cannot_hold_its_speed() {
     eprintln!("0.2 m/s: {hold:?}, top tension {top} N, reel-in rate {rate} m/s");
     assert_eq!(hold, MotorHold::AtLimit);
     assert!(top <= 0.5, "tension {top} N above the 0.5 N limit");
-    assert!(rate > 0.0 && rate < 0.2, "reel-in rate {rate} m/s at the limit");
+    assert!(
+        rate > 0.0 && rate < 0.2,
+        "reel-in rate {rate} m/s at the limit"
+    );
     let (hold, top, rate) = holds(0.005);
     eprintln!("0.005 m/s: {hold:?}, top tension {top} N, reel-in rate {rate} m/s");
     assert_eq!(hold, MotorHold::Tracking);
@@ -266,5 +276,8 @@ fn a_cable_reeled_in_from_near_flat_goes_slack_and_takes_up_again() {
     let controlled = run(0.05, true);
     assert!(controlled < 1e-5, "{controlled:e}");
     let (coarse, fine) = (run(0.05, false), run(0.025, false));
-    assert!(fine < coarse / 3.0, "balance {coarse:e} at dt 0.05, {fine:e} at dt 0.025");
+    assert!(
+        fine < coarse / 3.0,
+        "balance {coarse:e} at dt 0.05, {fine:e} at dt 0.025"
+    );
 }

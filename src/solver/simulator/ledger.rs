@@ -34,14 +34,7 @@ impl Simulator {
         );
         let (m, s, c) = (&self.model, &mut self.state, &self.core);
         let e = &mut s.energy;
-        book_drive_work(
-            m,
-            e,
-            &s.cables,
-            &c.cables,
-            &s.x,
-            &c.x,
-        );
+        book_drive_work(m, e, &s.cables, &c.cables, &s.x, &c.x);
         e.damping_loss_j += damping_loss_j(m, (&s.x, &s.v), (&c.x, &c.v));
         e.element_spring_energy_j += elastic_j;
         e.damping_loss_j += damper_j;
@@ -97,14 +90,7 @@ impl Simulator {
         let c = &mut self.core;
         let (elastic_j, damper_j) = c.element_springs.book_move(m, (&s.x, &s.v), (&c.x, &c.v));
         let mut scratch = Energy::default();
-        let work_j = book_drive_work(
-            m,
-            &mut scratch,
-            &s.cables,
-            &c.cables,
-            &s.x,
-            &c.x,
-        );
+        let work_j = book_drive_work(m, &mut scratch, &s.cables, &c.cables, &s.x, &c.x);
         let damping_j = damping_loss_j(m, (&s.x, &s.v), (&c.x, &c.v));
         let (kinetic_before_j, kinetic_trial_j) =
             (kinetic_energy_j(m, &s.v), kinetic_energy_j(m, &c.v));

@@ -199,7 +199,15 @@ impl Core {
     /// unit motor tension stay in `cables[ci]` until the solve scales them).
     pub fn motor_unit_forces(&mut self, model: &Model, ci: usize, direction: Option<&[f64]>) {
         let c = &model.cables[ci];
-        cable::evaluate_with_direction(c, 1.0, &self.x, &self.v, None, direction, &mut self.cables[ci]);
+        cable::evaluate_with_direction(
+            c,
+            1.0,
+            &self.x,
+            &self.v,
+            None,
+            direction,
+            &mut self.cables[ci],
+        );
         let g = &mut self.motor.g[ci];
         g.fill(0.0);
         cable::add_forces(c, &self.cables[ci], &self.x, g);
@@ -273,7 +281,10 @@ impl Core {
     /// `resp`, and the k x k matrix grad L_i . d_k into `mat` (`order` the
     /// tracking cables).
     fn motor_directions(&mut self, model: &Model) -> Result<(), SolverError> {
-        debug_assert!(self.implicit_h.is_none(), "projections use the plain masses");
+        debug_assert!(
+            self.implicit_h.is_none(),
+            "projections use the plain masses"
+        );
         let m = self.jac.nrows;
         self.motor.order.clear();
         for ci in 0..model.cables.len() {
@@ -293,7 +304,8 @@ impl Core {
         mw.mat.clear();
         for &ci in &mw.order {
             for &ck in &mw.order {
-                mw.mat.push(length_rate(&model.cables[ci], &self.x, &mw.resp[ck]));
+                mw.mat
+                    .push(length_rate(&model.cables[ci], &self.x, &mw.resp[ck]));
             }
         }
         Ok(())
@@ -340,7 +352,8 @@ impl Core {
             let mw = &mut self.motor;
             mw.rhs.clear();
             for &ci in &mw.order {
-                mw.rhs.push(model.cables[ci].length_m(&self.x) - mw.target_m[ci]);
+                mw.rhs
+                    .push(model.cables[ci].length_m(&self.x) - mw.target_m[ci]);
             }
             self.motor_correct(model, true)?;
             self.project_positions(model, st, mode)?;
@@ -362,7 +375,8 @@ impl Core {
         mw.rhs.clear();
         for &ci in &mw.order {
             let speed = mw.speed_m_s[ci].unwrap_or(0.0);
-            mw.rhs.push(length_rate(&model.cables[ci], &self.x, &self.v) + speed);
+            mw.rhs
+                .push(length_rate(&model.cables[ci], &self.x, &self.v) + speed);
         }
         self.motor_correct(model, false)
     }
@@ -373,7 +387,11 @@ impl Simulator {
     /// out) from the next step on, its tension up to the cable's
     /// `max_tension_n`; None returns it to tension control at its last
     /// commanded tension.
-    pub fn set_cable_speed(&mut self, cable: usize, speed_m_s: Option<f64>) -> Result<(), SolverError> {
+    pub fn set_cable_speed(
+        &mut self,
+        cable: usize,
+        speed_m_s: Option<f64>,
+    ) -> Result<(), SolverError> {
         let c = self
             .model
             .cables
@@ -486,7 +504,9 @@ impl Simulator {
         let mut changed = false;
         for ci in 0..self.model.cables.len() {
             let m = &self.state.motors[ci];
-            let Some(speed) = m.speed_cmd_m_s else { continue };
+            let Some(speed) = m.speed_cmd_m_s else {
+                continue;
+            };
             let c = &self.model.cables[ci];
             let reel_in = -length_rate(c, &self.state.x, &self.state.v);
             match m.hold {
