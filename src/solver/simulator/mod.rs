@@ -4,10 +4,12 @@
 //! step(dt) ─┬─ command changed? ── integrator::consistent_accelerations (restart)
 //!           └─ per sub-step h:
 //!                integrator::newmark ──── projection (positions, velocities)
+//!                                         motor (speed-controlled cables)
 //!                events::first_crossing ─ none ──────────────── ledger::accept
 //!                        │ a crossing or a touch
 //!                events::locate_latch (root of the step map) ── ledger::accept
 //!                impact::latch (velocity jump, impulses, mobility)
+//!                motor::motors_after_substep (release, engage)
 //! ```
 //!
 //! Compliant elements (`springs`) add their forces in the integrator and
