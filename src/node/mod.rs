@@ -31,7 +31,7 @@ compile_error!(
 
 use crate::solver::{Options, Simulator};
 use clap::{Args, ValueEnum};
-use commands::CommandBook;
+use commands::{CmdTopic, CommandBook};
 use log::node_log;
 use msgs::*;
 use params::Params;
@@ -355,6 +355,7 @@ struct Endpoints {
     tf: Publisher<TFMessage>,
     tf_static: Publisher<TFMessage>,
     cmd: Subscription<CableForceCommand>,
+    speed_cmd: Subscription<CableSpeedCommand>,
     srv: Services,
     params_srv: param_services::ParamServices,
     action: sim_action::SimulateSteps,
@@ -444,6 +445,16 @@ fn create_endpoints(
     let cmd = node
         .create_subscription::<CableForceCommand>(&cmd_t, None)
         .map_err(|x| e("cable_force_cmd", &x))?;
+    let speed_t = node
+        .create_topic(
+            &names.name("truss/cable_speed_cmd")?,
+            MessageTypeName::new("truss_deploy", "CableSpeedCommand"),
+            &qos::reliable10(),
+        )
+        .map_err(|x| e("cable_speed_cmd", &x))?;
+    let speed_cmd = node
+        .create_subscription::<CableSpeedCommand>(&speed_t, None)
+        .map_err(|x| e("cable_speed_cmd", &x))?;
     let srv = Services::new(node, names, forced_mapping(a.service_mapping))?;
     let params_srv = param_services::ParamServices::new(
         node,
@@ -461,6 +472,7 @@ fn create_endpoints(
         tf,
         tf_static,
         cmd,
+        speed_cmd,
         srv,
         params_srv,
         action,
@@ -512,6 +524,7 @@ fn start_params(a: &NodeArgs, ros: &RosArgs, fqn: &str) -> Result<StartParams, S
         ),
         (MARKER_RATE_HZ, ParamValue::Double(5.0)),
         (LOCK_PERIOD_S, ParamValue::Double(a.lock_period_s)),
+        (MAX_SPEED_M_S, ParamValue::Double(1.0)),
         (MODEL, ParamValue::Str(a.model.display().to_string())),
         (FRAME_ID, ParamValue::Str(a.frame_id.clone())),
         (PARENT_FRAME_ID, ParamValue::Str("world".into())),
@@ -557,6 +570,8 @@ struct Live {
     pub_period: Duration,
     lock_period: Duration,
     marker_period: Duration,
+    /// Largest |speed| a speed command may give (m/s).
+    max_speed_m_s: f64,
 }
 
 impl Live {
@@ -568,6 +583,7 @@ impl Live {
             pub_period: Duration::from_secs_f64(1.0 / rate_hz),
             lock_period: Duration::from_secs_f64(p.f64(params::LOCK_PERIOD_S)),
             marker_period: Duration::from_secs_f64(1.0 / p.f64(params::MARKER_RATE_HZ)),
+            max_speed_m_s: p.f64(params::MAX_SPEED_M_S),
         }
     }
 }
@@ -723,22 +739,46 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
         }
         // 1. Commands: drain everything pending (the reader keeps at most its
         //    QoS depth), validate each, merge the valid ones in order.
+        //    Force commands first, then speed commands: within one tick the
+        //    order between the two topics is the order they are read in.
         for _ in 0..MAX_CMDS_PER_WAKE {
             let r = match ep.cmd.take() {
                 Ok(None) => break,
                 Ok(Some(x)) => Ok(x),
                 Err(e) => Err(e),
             };
-            if let Some((v, src, taken)) = book_command(r, &mut book, sim.model()) {
+            if let Some((v, src, taken)) = book_command(r, &mut book, CmdTopic::Force, |b, c| {
+                b.check(c, sim.model())
+            }) {
                 pending.add(v, src, taken);
+            }
+            lock_dirty = true;
+        }
+        for _ in 0..MAX_CMDS_PER_WAKE {
+            let r = match ep.speed_cmd.take() {
+                Ok(None) => break,
+                Ok(Some(x)) => Ok(x),
+                Err(e) => Err(e),
+            };
+            if let Some((v, src, taken)) = book_command(r, &mut book, CmdTopic::Speed, |b, c| {
+                b.check_speed(c, sim.model(), live.max_speed_m_s)
+            }) {
+                pending.add_speeds(v, src, taken);
             }
             lock_dirty = true;
         }
         // The tick's valid commands are in force from the next step on.
         if let Some((cmd, src_ns, taken)) = pending.take() {
-            for (c, t) in cmd {
-                // validated against the same model: cannot fail
-                let _ = sim.set_cable_tension(c, t);
+            for (c, x) in cmd {
+                // validated against the same model; a speed's engagement
+                // solves at the state, which can fail
+                if let Err(e) = commands::apply(&mut sim, c, x) {
+                    node_log!(
+                        Warn,
+                        "command {x:?} for cable `{}` not applied: {e}",
+                        sim.model().cables[c].name
+                    );
+                }
             }
             lock_dirty = true;
             if timing.is_some() {
@@ -903,8 +943,19 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
             // keep-last-10 reader polled every 20 ms lost valid commands among
             // a flood), and in force sooner.
             r = ep.cmd.async_take() => {
-                if let Some((v, src, taken)) = book_command(r, &mut book, sim.model()) {
+                if let Some((v, src, taken)) = book_command(r, &mut book, CmdTopic::Force, |b, c| {
+                    b.check(c, sim.model())
+                }) {
                     pending.add(v, src, taken);
+                }
+                lock_dirty = true;
+                continue;
+            }
+            r = ep.speed_cmd.async_take() => {
+                if let Some((v, src, taken)) = book_command(r, &mut book, CmdTopic::Speed, |b, c| {
+                    b.check_speed(c, sim.model(), live.max_speed_m_s)
+                }) {
+                    pending.add_speeds(v, src, taken);
                 }
                 lock_dirty = true;
                 continue;
@@ -1005,17 +1056,18 @@ fn record_failed(
 /// Books one read of the command topic: a command is validated (counted,
 /// logged once per kind of fault); a sample that could not be decoded is
 /// counted as malformed (the reader has moved past it, so reading goes on).
-/// Returns the valid command's (cable, tension) list with its source stamp
-/// (ns since the Unix epoch, 0 if none) and the time it was taken.
+/// Returns the valid command's (cable, tension or speed) list with its source
+/// stamp (ns since the Unix epoch, 0 if none) and the time it was taken.
 #[allow(clippy::type_complexity)]
-fn book_command(
-    r: ros2_client::ReadResult<(CableForceCommand, ros2_client::MessageInfo)>,
+fn book_command<M>(
+    r: ros2_client::ReadResult<(M, ros2_client::MessageInfo)>,
     book: &mut CommandBook,
-    model: &crate::solver::model::Model,
+    topic: CmdTopic,
+    check: impl FnOnce(&mut CommandBook, &M) -> (Option<Vec<(usize, f64)>>, Option<String>),
 ) -> Option<(Vec<(usize, f64)>, i64, Instant)> {
     match r {
         Ok((cmd, info)) => {
-            let (ok, log) = book.check(&cmd, model);
+            let (ok, log) = check(book, &cmd);
             if let Some(l) = log {
                 node_log!(Warn, "{l}");
             }
@@ -1027,7 +1079,7 @@ fn book_command(
                 ros2_client::ReadError::Deserialization { reason } => reason.clone(),
                 other => format!("{other:?}"),
             };
-            if let Some(l) = book.malformed(&why, Instant::now()) {
+            if let Some(l) = book.malformed(topic, &why, Instant::now()) {
                 node_log!(Warn, "{l}");
             }
             None

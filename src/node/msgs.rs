@@ -105,6 +105,10 @@ pub struct TrussState {
     pub velocities: Vec<Vector3>,
     pub deploy_fraction: f64,
     pub remaining_dof: u32,
+    pub cable_names: Vec<String>,
+    pub motor_tensions_n: Vec<f64>,
+    pub reeled_in_m: Vec<f64>,
+    pub motor_modes: Vec<String>,
 }
 impl Message for TrussState {}
 
@@ -127,6 +131,7 @@ pub struct LockStatus {
     pub rejected_mismatched_lengths: u32,
     pub rejected_bad_tension: u32,
     pub rejected_malformed: u32,
+    pub rejected_bad_speed: u32,
 }
 impl Message for LockStatus {}
 
@@ -138,6 +143,14 @@ pub struct CableForceCommand {
 }
 impl Message for CableForceCommand {}
 
+/// truss_deploy/msg/CableSpeedCommand (msg/CableSpeedCommand.msg).
+#[derive(Debug, Clone, Default, Serialize, Deserialize, PartialEq)]
+pub struct CableSpeedCommand {
+    pub names: Vec<String>,
+    pub speeds_m_s: Vec<f64>,
+}
+impl Message for CableSpeedCommand {}
+
 /// The custom types as the Rust side declares them: (type, [(field, .msg type)]),
 /// in struct order. Kept by hand next to the structs; the test compares it both
 /// with the .msg files and with the structs' serde field names.
@@ -145,6 +158,10 @@ pub const CUSTOM_FIELDS: &[(&str, &[(&str, &str)])] = &[
     (
         "CableForceCommand",
         &[("names", "string[]"), ("tensions_n", "float64[]")],
+    ),
+    (
+        "CableSpeedCommand",
+        &[("names", "string[]"), ("speeds_m_s", "float64[]")],
     ),
     (
         "LockStatus",
@@ -165,6 +182,7 @@ pub const CUSTOM_FIELDS: &[(&str, &[(&str, &str)])] = &[
             ("rejected_mismatched_lengths", "uint32"),
             ("rejected_bad_tension", "uint32"),
             ("rejected_malformed", "uint32"),
+            ("rejected_bad_speed", "uint32"),
         ],
     ),
     (
@@ -176,6 +194,10 @@ pub const CUSTOM_FIELDS: &[(&str, &[(&str, &str)])] = &[
             ("velocities", "geometry_msgs/Vector3[]"),
             ("deploy_fraction", "float64"),
             ("remaining_dof", "uint32"),
+            ("cable_names", "string[]"),
+            ("motor_tensions_n", "float64[]"),
+            ("reeled_in_m", "float64[]"),
+            ("motor_modes", "string[]"),
         ],
     ),
 ];

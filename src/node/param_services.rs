@@ -343,6 +343,7 @@ mod tests {
             (RATE_HZ, ParamValue::Double(20.0)),
             (MARKER_RATE_HZ, ParamValue::Double(5.0)),
             (LOCK_PERIOD_S, ParamValue::Double(1.0)),
+            (MAX_SPEED_M_S, ParamValue::Double(1.0)),
             (MODEL, ParamValue::Str("m.toml".into())),
             (FRAME_ID, ParamValue::Str("truss".into())),
             (PARENT_FRAME_ID, ParamValue::Str("world".into())),
@@ -370,7 +371,7 @@ mod tests {
                 depth: 0,
             },
         );
-        assert!(l.result.names.contains(&"rtf".to_string()) && l.result.names.len() == 10);
+        assert!(l.result.names.contains(&"rtf".to_string()) && l.result.names.len() == 11);
         let g = get(
             &p,
             &GetParametersRequest {

@@ -42,6 +42,7 @@ pub const RTF: &str = "rtf";
 pub const RATE_HZ: &str = "rate_hz";
 pub const MARKER_RATE_HZ: &str = "marker_rate_hz";
 pub const LOCK_PERIOD_S: &str = "lock_period_s";
+pub const MAX_SPEED_M_S: &str = "max_speed_m_s";
 pub const MODEL: &str = "model";
 pub const FRAME_ID: &str = "frame_id";
 pub const PARENT_FRAME_ID: &str = "parent_frame_id";
@@ -91,6 +92,15 @@ pub fn descriptors() -> Vec<Descriptor> {
             Some("--lock-period-s"),
             false,
             Some((1e-3, 3600.0)),
+        ),
+        d(
+            MAX_SPEED_M_S,
+            Kind::Double,
+            "largest reel-in speed a /truss/cable_speed_cmd may command, either way (m/s); \
+             a command above it is rejected",
+            None,
+            false,
+            Some((1e-6, 100.0)),
         ),
         d(MODEL, Kind::Str, "the model file (TOML)", None, true, None),
         d(
@@ -299,6 +309,7 @@ mod tests {
             (RATE_HZ, ParamValue::Double(20.0)),
             (MARKER_RATE_HZ, ParamValue::Double(5.0)),
             (LOCK_PERIOD_S, ParamValue::Double(1.0)),
+            (MAX_SPEED_M_S, ParamValue::Double(1.0)),
             (MODEL, ParamValue::Str("m.toml".into())),
             (FRAME_ID, ParamValue::Str("truss".into())),
             (PARENT_FRAME_ID, ParamValue::Str("world".into())),

@@ -4,6 +4,7 @@ use super::commands::CommandBook;
 use super::msgs::*;
 use super::Distro;
 use crate::solver::model::Model;
+use crate::solver::state::MotorHold;
 use crate::solver::Simulator;
 use ros2_client::builtin_interfaces::Time;
 use ros2_client::{MessageTypeName, Name, Node, Publisher};
@@ -14,6 +15,8 @@ enum MJoint {
     Hinge([usize; 4]),
     /// Sleeve: element.
     Slide(usize),
+    /// A drive cable's motor: cable index.
+    Motor(usize),
 }
 
 /// Static view of the model: which elements become /joint_states entries and
@@ -49,6 +52,28 @@ fn angle(x: &[f64], r: &[usize; 4]) -> f64 {
     cn.atan2(d)
 }
 
+/// A motor's actual tension (N): while it tracks a speed, the tension that
+/// holds it (`State::motor_tension_n`, of the last step); otherwise the
+/// tension it holds by command, at its limit or slack (0), which is what
+/// `State::motor_tension_n` gives after the next step, and is already in
+/// force while the simulation is paused.
+pub fn motor_tension_n(s: &crate::solver::state::State, ci: usize) -> f64 {
+    match s.motors[ci].hold {
+        MotorHold::Tracking => s.motor_tension_n(ci),
+        _ => s.cable_tension_cmd_n[ci],
+    }
+}
+
+/// A motor's mode on /truss/state: its hold in snake case.
+pub fn motor_mode(h: MotorHold) -> &'static str {
+    match h {
+        MotorHold::Tension => "tension",
+        MotorHold::Tracking => "tracking",
+        MotorHold::AtLimit => "at_limit",
+        MotorHold::Slack => "slack",
+    }
+}
+
 impl View {
     pub fn new(m: &Model) -> View {
         let mut names = Vec::new();
@@ -70,6 +95,13 @@ impl View {
                 members.push((js[a], js[b], lockable.then_some(e)));
             }
         }
+        // Each drive cable's motor: a joint whose position is the cable
+        // reeled in (m), velocity the reel-in rate (m/s) and effort the motor
+        // tension (N), for topic-based ros2_control bridges.
+        for (ci, c) in m.cables.iter().enumerate() {
+            names.push(format!("{}_motor", c.name));
+            joints.push(MJoint::Motor(ci));
+        }
         View {
             names,
             joints,
@@ -86,7 +118,9 @@ impl View {
         }
     }
 
-    /// Names on /joint_states: scissor hinges (revolute) and sleeves (prismatic).
+    /// Names on /joint_states: scissor hinges (revolute) and sleeves
+    /// (prismatic), then each drive cable's motor as `<cable>_motor`
+    /// (prismatic along the cable: see [`Self::joint_state`]).
     pub fn mechanism_joint_names(&self) -> &[String] {
         &self.names
     }
@@ -141,6 +175,11 @@ impl View {
                         sim.latch_spring_force_n(*e).unwrap_or(0.0)
                     };
                     eff.push(force);
+                }
+                MJoint::Motor(ci) => {
+                    pos.push(s.reeled_in_m(m, *ci));
+                    vel.push(s.reel_in_rate_m_s(m, *ci));
+                    eff.push(motor_tension_n(s, *ci));
                 }
             }
         }
@@ -216,6 +255,16 @@ impl View {
                 .collect(),
             deploy_fraction: s.deploy_fraction(m),
             remaining_dof: s.mechanisms as u32,
+            cable_names: self.cable_names.clone(),
+            motor_tensions_n: (0..m.cables.len())
+                .map(|ci| motor_tension_n(s, ci))
+                .collect(),
+            reeled_in_m: (0..m.cables.len()).map(|ci| s.reeled_in_m(m, ci)).collect(),
+            motor_modes: s
+                .motors
+                .iter()
+                .map(|mo| motor_mode(mo.hold).into())
+                .collect(),
         }
     }
 
@@ -250,13 +299,16 @@ impl View {
             deployed: s.deployed && crate::solver::checks::jammed(m, s, &self.checks).is_none(),
             paused,
             cable_names: self.cable_names.clone(),
-            cable_tensions_n: s.cable_tension_cmd_n.clone(),
+            cable_tensions_n: (0..m.cables.len())
+                .map(|ci| motor_tension_n(s, ci))
+                .collect(),
             accepted_commands: book.accepted,
             rejected_commands: book.rejected,
             rejected_unknown_cable: book.unknown_cable,
             rejected_mismatched_lengths: book.mismatched_lengths,
             rejected_bad_tension: book.bad_tension,
             rejected_malformed: book.malformed,
+            rejected_bad_speed: book.bad_speed,
         }
     }
 

@@ -87,6 +87,10 @@ const STANDARD_MSGS: &[(&str, &str)] = &[
         "truss_deploy/CableForceCommand",
         include_str!("../../msg/CableForceCommand.msg"),
     ),
+    (
+        "truss_deploy/CableSpeedCommand",
+        include_str!("../../msg/CableSpeedCommand.msg"),
+    ),
 ];
 
 /// visualization_msgs/Marker up to `colors`, the same in both layouts.

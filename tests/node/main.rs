@@ -7,7 +7,7 @@
 /// domain (they did: node_dds's and node_fastdds's formulas could meet). The
 /// process id spreads concurrent test processes over 7 blocks of 32; every id
 /// stays <= 224, whose RTPS ports are below 65536.
-/// Slots: node_dds 0-3, node_fastdds 4, node_cyclone 5, record_mcap 6-9, node_ros 10-21.
+/// Slots: node_dds 0-3 and 22, node_fastdds 4, node_cyclone 5, record_mcap 6-9, node_ros 10-21.
 pub fn domain(slot: u16) -> u16 {
     assert!(slot < 32, "domain slot {slot}");
     1 + (std::process::id() as u16 % 7) * 32 + slot

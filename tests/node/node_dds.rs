@@ -28,7 +28,11 @@ impl Drop for NodeProc {
 }
 
 fn spawn_node(dom: u16, extra: &[&str]) -> NodeProc {
-    let mut args = vec!["node", MODEL, "--loopback", "--lock-period-s", "1000"];
+    spawn_node_on(MODEL, dom, extra)
+}
+
+fn spawn_node_on(model: &str, dom: u16, extra: &[&str]) -> NodeProc {
+    let mut args = vec!["node", model, "--loopback", "--lock-period-s", "1000"];
     args.extend_from_slice(extra);
     let child = Command::new(env!("CARGO_BIN_EXE_truss-deploy"))
         .args(&args)
@@ -45,6 +49,7 @@ struct Peer {
     st: Subscription<TrussState>,
     lock: Subscription<LockStatus>,
     cmd: Publisher<CableForceCommand>,
+    speed: Publisher<CableSpeedCommand>,
     resume: Client<TriggerRequest, TriggerResponse>,
     node: Node,
     _ctx: Context,
@@ -103,10 +108,19 @@ fn peer(dom: u16) -> Peer {
         "CableForceCommand",
         qos::reliable10(),
     );
+    let speed_t = t(
+        &mut node,
+        "/truss",
+        "cable_speed_cmd",
+        "truss_deploy",
+        "CableSpeedCommand",
+        qos::reliable10(),
+    );
     let js = node.create_subscription(&js_t, None).unwrap();
     let st = node.create_subscription(&st_t, None).unwrap();
     let lock = node.create_subscription(&lk_t, None).unwrap();
     let cmd = node.create_publisher(&cmd_t, None).unwrap();
+    let speed = node.create_publisher(&speed_t, None).unwrap();
     let resume = node
         .create_client::<TriggerRequest, TriggerResponse>(
             ServiceMapping::Cyclone,
@@ -121,6 +135,7 @@ fn peer(dom: u16) -> Peer {
         st,
         lock,
         cmd,
+        speed,
         resume,
         node,
         _ctx: ctx,
@@ -168,6 +183,19 @@ async fn send(p: &Peer, names: &[&str], t: &[f64]) {
     p.cmd.publish(m).expect("publish command");
 }
 
+/// Publishes a speed command, retrying (bounded) until the node's reader is matched.
+async fn send_speed(p: &Peer, names: &[&str], s: &[f64]) {
+    let end = Instant::now() + Duration::from_secs(10);
+    while p.speed.get_subscription_count(&p.node) == 0 && Instant::now() < end {
+        tokio::time::sleep(Duration::from_millis(50)).await;
+    }
+    let m = CableSpeedCommand {
+        names: names.iter().map(|s| s.to_string()).collect(),
+        speeds_m_s: s.to_vec(),
+    };
+    p.speed.publish(m).expect("publish speed command");
+}
+
 async fn call_resume(p: &Peer) -> TriggerResponse {
     let end = Instant::now() + Duration::from_secs(15);
     for _ in 0..100 {
@@ -199,6 +227,7 @@ fn joint_states_and_late_joining_lock_status() {
         .iter()
         .filter(|e| matches!(e.kind(), "scissor" | "sleeve"))
         .map(|e| e.name().to_string())
+        .chain(["drive_motor".to_string()])
         .collect();
     let locks: Vec<String> = model
         .locks
@@ -402,5 +431,163 @@ fn bad_commands_are_rejected_counted_and_publishing_goes_on() {
             "publishing stopped after bad commands / flood"
         );
         assert!(stamps.last() > stamps.first());
+    });
+}
+
+/// A pantograph mast that stays taut under speed control: started at 30 deg
+/// (near the flat start the cable goes slack at a constant reel-in speed) and
+/// damped. Written once per test process.
+fn taut_mast() -> String {
+    static PATH: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+    PATH.get_or_init(|| {
+        let path = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
+            .join(format!("speed_mast_{}.toml", std::process::id()));
+        let st = Command::new(env!("CARGO_BIN_EXE_truss-deploy"))
+            .args([
+                "generate",
+                "mast",
+                "--start-deg",
+                "30",
+                "--damping",
+                "0.5",
+                "-o",
+            ])
+            .arg(&path)
+            .stdout(Stdio::null())
+            .status()
+            .expect("run generate mast");
+        assert!(st.success(), "generate mast: {st}");
+        path.display().to_string()
+    })
+    .clone()
+}
+
+/// A CableSpeedCommand drives the mast's motor at that speed: on
+/// /joint_states the `drive_motor` joint's velocity is the commanded speed
+/// (to 1e-9 m/s) and its position (the cable reeled in) grows at it, while
+/// /truss/state says the motor is tracking and LockStatus shows the motor's
+/// actual tension. A speed above the `max_speed_m_s` parameter is rejected
+/// whole and counted, and the good command stays.
+#[test]
+fn speed_command_drives_the_motor_joint_and_a_bad_one_is_counted() {
+    let dom = domain(22);
+    let model = taut_mast();
+    let _node = spawn_node_on(
+        &model,
+        dom,
+        &[
+            "--max-wall-s",
+            "20",
+            "--rtf",
+            "4",
+            "--ros-args",
+            "-p",
+            "max_speed_m_s:=0.05",
+        ],
+    );
+    let speed = 0.02;
+    rt().block_on(async {
+        let mut p = peer(dom);
+        // the peer's spinner keeps its publishers' match counts, so that
+        // `send_speed` waits for the node's reader only as long as it must
+        let spinner = p.node.spinner().expect("peer spinner");
+        tokio::spawn(spinner.spin());
+        send_speed(&p, &["drive"], &[speed]).await;
+        // /truss/state: the motor tracks the speed
+        let end = Instant::now() + Duration::from_secs(10);
+        let mut tracking = None;
+        for _ in 0..2000 {
+            if Instant::now() > end {
+                break;
+            }
+            if let Some(st) = next_state(&p, 2.0).await {
+                assert_eq!(st.cable_names, ["drive"]);
+                assert_eq!(st.motor_modes.len(), 1);
+                if st.motor_modes[0] == "tracking" {
+                    tracking = Some(st);
+                    break;
+                }
+            }
+        }
+        let st = tracking.expect("the motor tracks the commanded speed on /truss/state");
+        let t_track = stamp_s(&st.header.stamp);
+        assert!(
+            st.motor_tensions_n[0] > 0.0 && st.motor_tensions_n[0] <= 1.0,
+            "{st:?}"
+        );
+        // /joint_states after that: the motor joint at the speed
+        let mut samples: Vec<(f64, f64, f64, f64)> = Vec::new();
+        for _ in 0..2000 {
+            if samples.len() >= 40 || Instant::now() > end + Duration::from_secs(5) {
+                break;
+            }
+            let Ok(Ok((js, _))) =
+                tokio::time::timeout(Duration::from_secs(2), p.js.async_take()).await
+            else {
+                break;
+            };
+            let t = stamp_s(&js.header.stamp);
+            if t <= t_track {
+                continue;
+            }
+            let k = js
+                .name
+                .iter()
+                .position(|n| n == "drive_motor")
+                .expect("drive_motor on /joint_states");
+            samples.push((t, js.position[k], js.velocity[k], js.effort[k]));
+        }
+        assert!(samples.len() >= 40, "only {} joint_states", samples.len());
+        for &(t, _, v, e) in &samples {
+            assert!(
+                (v - speed).abs() <= 1e-9,
+                "t = {t}: drive_motor velocity {v} m/s, commanded {speed}"
+            );
+            assert!(e > 0.0 && e <= 1.0, "t = {t}: motor tension {e} N");
+        }
+        let (t0, x0, _, _) = samples[0];
+        let (t1, x1, _, _) = *samples.last().unwrap();
+        assert!(t1 - t0 > 1.0, "{t0} .. {t1}");
+        let rate = (x1 - x0) / (t1 - t0);
+        assert!(
+            (rate - speed).abs() <= 1e-6,
+            "reeled in {} m in {} s: {rate} m/s, commanded {speed}",
+            x1 - x0,
+            t1 - t0
+        );
+        // LockStatus: the motor's actual tension, the command counted
+        let ls = wait_lock(&p, 5.0, |m| m.accepted_commands == 1)
+            .await
+            .expect("speed command counted");
+        assert!(ls.cable_tensions_n[0] > 0.0 && ls.cable_tensions_n[0] <= 1.0);
+        // above max_speed_m_s (0.05): rejected whole, counted as a bad speed
+        send_speed(&p, &["drive"], &[-0.5]).await;
+        let ls = wait_lock(&p, 5.0, |m| m.rejected_commands >= 1)
+            .await
+            .expect("bad speed rejected and counted");
+        assert_eq!(
+            (
+                ls.rejected_commands,
+                ls.rejected_bad_speed,
+                ls.accepted_commands
+            ),
+            (1, 1, 1),
+            "{ls:?}"
+        );
+        // the good command stays: the motor still reels in at the speed
+        let mut after = None;
+        for _ in 0..1000 {
+            let (js, _) = tokio::time::timeout(Duration::from_secs(2), p.js.async_take())
+                .await
+                .expect("joint_states go on")
+                .unwrap();
+            if stamp_s(&js.header.stamp) > stamp_s(&ls.header.stamp) {
+                after = Some(js);
+                break;
+            }
+        }
+        let js = after.expect("joint_states after the rejection");
+        let k = js.name.iter().position(|n| n == "drive_motor").unwrap();
+        assert!((js.velocity[k] - speed).abs() <= 1e-9, "{js:?}");
     });
 }

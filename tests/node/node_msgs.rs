@@ -109,6 +109,7 @@ fn msg_files_match_rust_structs_field_by_field() {
 
     let structs = [
         serde_fields::<msgs::CableForceCommand>(),
+        serde_fields::<msgs::CableSpeedCommand>(),
         serde_fields::<msgs::LockStatus>(),
         serde_fields::<msgs::TrussState>(),
     ];
@@ -149,6 +150,11 @@ fn rust_field_types_are_what_the_table_says() {
         rejected_mismatched_lengths: 0u32,
         rejected_bad_tension: 0u32,
         rejected_malformed: 0u32,
+        rejected_bad_speed: 0u32,
+    };
+    let _ = CableSpeedCommand {
+        names: Vec::<String>::new(),
+        speeds_m_s: Vec::<f64>::new(),
     };
     let _ = TrussState {
         header: h,
@@ -157,6 +163,10 @@ fn rust_field_types_are_what_the_table_says() {
         velocities: Vec::<Vector3>::new(),
         deploy_fraction: 0f64,
         remaining_dof: 0u32,
+        cable_names: Vec::<String>::new(),
+        motor_tensions_n: Vec::<f64>::new(),
+        reeled_in_m: Vec::<f64>::new(),
+        motor_modes: Vec::<String>::new(),
     };
     // and the ROS type mapping the table uses
     for (_, fields) in CUSTOM_FIELDS {
