@@ -12,13 +12,17 @@
 //   (a) receives and decodes rt/joint_states,
 //   (b) writes a CableForceCommand the moment its writer matches the node's
 //       reader, and waits for LockStatus to show it in force (first-sample delay),
-//   (c) calls /truss/pause (std_srvs/Trigger) as soon as the service is
+//   (b2) then writes one CableSpeedCommand (PEER_SPEED m/s, default 0.02) and
+//       reads the `drive_motor` joint on rt/joint_states: its velocity is the
+//       speed and its position (the cable reeled in) grows at it for 1 s of
+//       simulated time (the node runs a mast that stays taut: node_fastdds.rs),
+//   (c) then calls /truss/pause (std_srvs/Trigger) as soon as the service is
 //       available (request writer and reply reader matched), twice
 //       (first-call and second-call latency),
 //   (d) from a second participant, floods malformed CableForceCommand samples
 //       at about 10 kHz for 1 s while the first writes 9 valid commands, and
 //       reads from LockStatus how many were applied and how many malformed
-//       ones were counted.
+//       ones were counted (the valid ones end the motor's speed control).
 // Every loop is bounded in count and time. Loopback only (127.0.0.1, unicast
 // discovery). Env: ROS_DOMAIN_ID, PEER_SECS (default 30). Prints one line
 // `SUMMARY {json}`; exit 0 iff (a)-(d) passed.
@@ -42,6 +46,14 @@ struct CableForceCommand {  // msg/CableForceCommand.msg
     static const char* type() { return "truss_deploy::msg::dds_::CableForceCommand_"; }
 };
 
+struct CableSpeedCommand {  // msg/CableSpeedCommand.msg
+    std::vector<std::string> names;
+    std::vector<double> speeds_m_s;
+    void serialize(Cdr& c) const { c << names << speeds_m_s; }
+    void deserialize(Cdr& c) { c >> names >> speeds_m_s; }
+    static const char* type() { return "truss_deploy::msg::dds_::CableSpeedCommand_"; }
+};
+
 // Not a CableForceCommand: a names sequence that claims 2^32-16 strings in a
 // 12-byte payload. Same type name, so the node's reader matches the writer
 // and cannot decode what it receives.
@@ -61,7 +73,8 @@ struct LockStatus {  // msg/LockStatus.msg
     std::vector<std::string> cable_names;
     std::vector<double> cable_tensions_n;
     uint32_t accepted_commands = 0, rejected_commands = 0, rejected_unknown_cable = 0,
-             rejected_mismatched_lengths = 0, rejected_bad_tension = 0, rejected_malformed = 0;
+             rejected_mismatched_lengths = 0, rejected_bad_tension = 0, rejected_malformed = 0,
+             rejected_bad_speed = 0;
     void serialize(Cdr&) const {}
     void deserialize(Cdr& c) {
         de(c, header);
@@ -69,6 +82,7 @@ struct LockStatus {  // msg/LockStatus.msg
             cable_names >> cable_tensions_n >> accepted_commands >> rejected_commands >>
             rejected_unknown_cable >> rejected_mismatched_lengths >> rejected_bad_tension;
         if (!std::getenv("PEER_LOCKSTATUS_WITHOUT_MALFORMED")) c >> rejected_malformed;  // (main before #14)
+        if (!std::getenv("PEER_LOCKSTATUS_WITHOUT_MALFORMED")) c >> rejected_bad_speed;  // (issue 30)
     }
     static const char* type() { return "truss_deploy::msg::dds_::LockStatus_"; }
 };
@@ -93,6 +107,8 @@ int main() {
     const char* b = std::getenv("PEER_SECS");
     const double budget_s = b ? std::atof(b) : 30.0;
     const double tension = 0.0123;  // below the mast's 0.02 N: it must not deploy in the test
+    const char* sp = std::getenv("PEER_SPEED");
+    const double speed = sp ? std::atof(sp) : 0.02;
 
     DomainParticipant* p = make_participant(domain, "fastdds_peer");
     DomainParticipant* flooder = make_participant(domain, "fastdds_flooder");
@@ -107,6 +123,8 @@ int main() {
         sub->create_datareader(topic<LockStatus>(p, "rt/truss/lock_status"), reader_qos(true, 1));
     DataWriter* cmd_w =
         pub->create_datawriter(topic<CableForceCommand>(p, "rt/truss/cable_force_cmd"), writer_qos());
+    DataWriter* speed_w =
+        pub->create_datawriter(topic<CableSpeedCommand>(p, "rt/truss/cable_speed_cmd"), writer_qos());
     DataWriter* rq_w =
         pub->create_datawriter(topic<TriggerRequest>(p, "rq/truss/pauseRequest"), writer_qos(false, 1000));
     DataReader* rr_r =
@@ -114,7 +132,7 @@ int main() {
     DataWriter* bad_w = flooder->create_publisher(PUBLISHER_QOS_DEFAULT)
                             ->create_datawriter(topic<MalformedCommand>(flooder, "rt/truss/cable_force_cmd"),
                                                 writer_qos());
-    if (!js_r || !lock_r || !cmd_w || !rq_w || !rr_r || !bad_w) {
+    if (!js_r || !lock_r || !cmd_w || !speed_w || !rq_w || !rr_r || !bad_w) {
         log("cannot create endpoints");
         return 2;
     }
@@ -124,6 +142,11 @@ int main() {
     int n_js = 0;
     std::vector<std::string> js_names;
     double cmd_matched_s = -1, cmd_sent_s = -1, cmd_applied_s = -1;
+    // speed phase: the drive_motor joint after the speed command
+    double speed_sent_s = -1;
+    bool speed_done = false;
+    int speed_samples = 0;
+    double speed_vel_err = 0, speed_t0 = -1, speed_x0 = 0, speed_t1 = -1, speed_x1 = 0;
     double srv_available_s = -1;
     std::vector<double> call_latency_s;
     std::vector<std::string> call_messages;
@@ -152,6 +175,28 @@ int main() {
                 if (si.valid_data) {
                     ++n_js;
                     js_names = js.name;
+                    // (b2) once the motor runs at the speed, every later sample must
+                    size_t k = 0;
+                    while (k < js.name.size() && js.name[k] != "drive_motor") ++k;
+                    if (speed_sent_s >= 0 && !speed_done && k < js.velocity.size() && k < js.position.size()) {
+                        const double t = js.header.stamp.sec + 1e-9 * js.header.stamp.nanosec;
+                        const double err = std::fabs(js.velocity[k] - speed);
+                        if (speed_t0 < 0 && err <= 1e-9) {
+                            speed_t0 = t;
+                            speed_x0 = js.position[k];
+                        }
+                        if (speed_t0 >= 0 && t > speed_t0) {
+                            ++speed_samples;
+                            speed_vel_err = std::max(speed_vel_err, err);
+                            speed_t1 = t;
+                            speed_x1 = js.position[k];
+                            if (speed_t1 - speed_t0 >= 1.0) {
+                                speed_done = true;
+                                log("speed phase: " + std::to_string(speed_samples) + " samples over " +
+                                    std::to_string(speed_t1 - speed_t0) + " s simulated");
+                            }
+                        }
+                    }
                 }
             }
         }
@@ -185,8 +230,22 @@ int main() {
             log("command in force (LockStatus) " + std::to_string(cmd_applied_s - cmd_sent_s) +
                 " s after it was written");
         }
-        // (c) service calls as rmw_fastrtps makes them
-        if (srv_available_s < 0) {
+        // (b2) one speed command once the force command is in force
+        if (cmd_applied_s >= 0 && speed_sent_s < 0) {
+            PublicationMatchedStatus st;
+            speed_w->get_publication_matched_status(st);
+            if (st.current_count > 0) {
+                CableSpeedCommand c;
+                c.names = {"drive"};
+                c.speeds_m_s = {speed};
+                speed_w->write(&c);
+                speed_sent_s = now;
+                log("speed command written");
+            }
+        }
+        // (c) service calls as rmw_fastrtps makes them (after the speed phase,
+        // which needs the simulation running)
+        if (srv_available_s < 0 && speed_done) {
             PublicationMatchedStatus ps;
             SubscriptionMatchedStatus ss;
             rq_w->get_publication_matched_status(ps);
@@ -269,13 +328,18 @@ int main() {
     }
 
     const bool calls_ok = call_latency_s.size() == 2 && call_messages[0].rfind("ok: ", 0) == 0;
-    const bool ok = n_js >= 20 && cmd_applied_s >= 0 && calls_ok && flood_checked && last_valid_in_force &&
-                    valid_applied == uint32_t(valid_sent) && malformed_counted > 0;
+    const double speed_rate = speed_done ? (speed_x1 - speed_x0) / (speed_t1 - speed_t0) : 0.0;
+    const bool speed_ok = speed_done && speed_vel_err <= 1e-9 && std::fabs(speed_rate - speed) <= 1e-6;
+    const bool ok = n_js >= 20 && cmd_applied_s >= 0 && speed_ok && calls_ok && flood_checked &&
+                    last_valid_in_force && valid_applied == uint32_t(valid_sent) && malformed_counted > 0;
     std::ostringstream js;
     js << "{\"joint_states\":" << n_js << ",\"joint_names\":[";
     for (size_t i = 0; i < js_names.size(); ++i) js << (i ? "," : "") << json_str(js_names[i]);
     js << "],\"command_matched_s\":" << cmd_matched_s
        << ",\"command_to_in_force_s\":" << (cmd_applied_s >= 0 ? cmd_applied_s - cmd_sent_s : -1)
+       << ",\"speed_m_s\":" << speed << ",\"speed_done\":" << (speed_done ? "true" : "false")
+       << ",\"speed_samples\":" << speed_samples << ",\"speed_velocity_max_err\":" << speed_vel_err
+       << ",\"speed_reel_in_rate\":" << speed_rate << ",\"speed_sim_s\":" << (speed_t1 - speed_t0)
        << ",\"service_available_s\":" << srv_available_s << ",\"call_latency_s\":[";
     for (size_t i = 0; i < call_latency_s.size(); ++i) js << (i ? "," : "") << call_latency_s[i];
     js << "],\"call_messages\":[";

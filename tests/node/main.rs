@@ -13,6 +13,35 @@ pub fn domain(slot: u16) -> u16 {
     1 + (std::process::id() as u16 % 7) * 32 + slot
 }
 
+/// A pantograph mast that stays taut under speed control: started at 30 deg
+/// (near the flat start the cable goes slack at a constant reel-in speed) and
+/// damped (node_dds, and the Cyclone and Fast DDS peers' speed phase).
+/// Written once per test process.
+pub fn taut_mast() -> String {
+    static PATH: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+    PATH.get_or_init(|| {
+        let path = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
+            .join(format!("speed_mast_{}.toml", std::process::id()));
+        let st = std::process::Command::new(env!("CARGO_BIN_EXE_truss-deploy"))
+            .args([
+                "generate",
+                "mast",
+                "--start-deg",
+                "30",
+                "--damping",
+                "0.5",
+                "-o",
+            ])
+            .arg(&path)
+            .stdout(std::process::Stdio::null())
+            .status()
+            .expect("run generate mast");
+        assert!(st.success(), "generate mast: {st}");
+        path.display().to_string()
+    })
+    .clone()
+}
+
 mod node_cyclone;
 mod node_dds;
 mod node_fastdds;

@@ -3,15 +3,14 @@
 //! late-joins /truss/lock_status and sends a command the node obeys; then it drives
 //! the simulation_interfaces services as rmw_cyclonedds_cpp calls them (no mapping
 //! flag on the node): features, pause, step 5, resume, reset, and joins
-//! /truss/lock_status late once more, getting exactly the last sample.
+//! /truss/lock_status late once more, getting exactly the last sample; last it
+//! sends a CableSpeedCommand and sees the `drive_motor` joint move at that speed.
 //! Interpreter: env TRUSS_PYTHON (default `python3`). SKIPS loudly when
 //! `import cyclonedds` fails; .ci/run installs it so that CI really runs this.
 #![cfg(feature = "ros")]
 
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
-
-const MODEL: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/models/pantograph_mast.toml");
 
 #[test]
 fn cyclone_python_peer_talks_to_the_node() {
@@ -29,11 +28,13 @@ fn cyclone_python_peer_talks_to_the_node() {
         return;
     }
     let dom = crate::domain(5);
+    // the bundled mast started at 30 deg and damped: taut under a speed command
+    let model = crate::taut_mast();
     let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/python");
     let mut node = Command::new(env!("CARGO_BIN_EXE_truss-deploy"))
         .args([
             "node",
-            MODEL,
+            &model,
             "--loopback",
             "--lock-period-s",
             "1000",
@@ -54,6 +55,7 @@ fn cyclone_python_peer_talks_to_the_node() {
         // small: the mast must not deploy before the services are driven
         .env("PEER_TENSION", "0.0234")
         .env("PEER_SIM_IF", "1")
+        .env("PEER_SPEED", "0.02")
         .output()
         .expect("run peer.py");
     let _ = node.kill();
@@ -134,6 +136,13 @@ fn cyclone_python_peer_talks_to_the_node() {
         si["late_joiner_samples"], 1,
         "a late joiner (keeping up to 100) gets exactly the last LockStatus: the writer keeps last 1"
     );
+    // the speed command: drive_motor's velocity is the speed from when the
+    // motor engaged, its position grows at it (over 1 s of simulated time)
+    let sp = &v["speed"];
+    assert_eq!(sp["ok"], true, "{sp}");
+    assert!(sp["velocity_max_err"].as_f64().unwrap() <= 1e-9, "{sp}");
+    let rate = sp["reel_in_rate"].as_f64().unwrap();
+    assert!((rate - 0.02).abs() <= 1e-6, "reel-in rate {rate}: {sp}");
     let lat = si["first_call_latency_s"].as_f64().unwrap();
     eprintln!("Cyclone client: first call answered {lat:.4} s after the service was available");
     assert!(lat < 1.0, "first call within 1 s: {lat} s");

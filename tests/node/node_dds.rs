@@ -434,34 +434,6 @@ fn bad_commands_are_rejected_counted_and_publishing_goes_on() {
     });
 }
 
-/// A pantograph mast that stays taut under speed control: started at 30 deg
-/// (near the flat start the cable goes slack at a constant reel-in speed) and
-/// damped. Written once per test process.
-fn taut_mast() -> String {
-    static PATH: std::sync::OnceLock<String> = std::sync::OnceLock::new();
-    PATH.get_or_init(|| {
-        let path = std::path::PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
-            .join(format!("speed_mast_{}.toml", std::process::id()));
-        let st = Command::new(env!("CARGO_BIN_EXE_truss-deploy"))
-            .args([
-                "generate",
-                "mast",
-                "--start-deg",
-                "30",
-                "--damping",
-                "0.5",
-                "-o",
-            ])
-            .arg(&path)
-            .stdout(Stdio::null())
-            .status()
-            .expect("run generate mast");
-        assert!(st.success(), "generate mast: {st}");
-        path.display().to_string()
-    })
-    .clone()
-}
-
 /// A CableSpeedCommand drives the mast's motor at that speed: on
 /// /joint_states the `drive_motor` joint's velocity is the commanded speed
 /// (to 1e-9 m/s) and its position (the cable reeled in) grows at it, while
@@ -471,7 +443,7 @@ fn taut_mast() -> String {
 #[test]
 fn speed_command_drives_the_motor_joint_and_a_bad_one_is_counted() {
     let dom = domain(22);
-    let model = taut_mast();
+    let model = crate::taut_mast();
     let _node = spawn_node_on(
         &model,
         dom,

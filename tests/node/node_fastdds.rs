@@ -1,9 +1,10 @@
 //! Interoperability with eProsima Fast DDS, the DDS under ROS 2's default RMW
 //! (rmw_fastrtps_cpp): tests/fastdds/peer.cpp, built here with g++ against
 //! Debian's libfastrtps-dev, receives /joint_states, writes a command the moment
-//! its writer matches and sees it in force, calls /truss/pause as rmw_fastrtps
-//! does (no mapping flag on the node, no RMW_IMPLEMENTATION), and floods
-//! malformed commands with valid ones among them.
+//! its writer matches and sees it in force, drives the motor by a speed
+//! command and sees the `drive_motor` joint move at that speed, calls
+//! /truss/pause as rmw_fastrtps does (no mapping flag on the node, no
+//! RMW_IMPLEMENTATION), and floods malformed commands with valid ones among them.
 //! SKIPS loudly when Fast DDS or g++ is missing, unless TRUSS_REQUIRE_FASTDDS=1
 //! (set by .ci/run, which installs libfastrtps-dev): then it fails.
 #![cfg(feature = "ros")]
@@ -11,8 +12,6 @@
 use std::path::PathBuf;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
-
-const MODEL: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/models/pantograph_mast.toml");
 
 /// Builds the peer into the target dir; None (with the reason) when it cannot.
 /// Compiles tests/fastdds/NAME.cpp (with common.hpp) against Debian's Fast DDS.
@@ -75,10 +74,12 @@ fn fastdds_peer_talks_to_the_node_with_no_mapping_flag() {
         return;
     };
     let dom = crate::domain(4);
+    // the bundled mast started at 30 deg and damped: taut under a speed command
+    let model = crate::taut_mast();
     let mut node = Command::new(env!("CARGO_BIN_EXE_truss-deploy"))
         .args([
             "node",
-            MODEL,
+            &model,
             "--loopback",
             "--lock-period-s",
             "1000",
@@ -141,6 +142,12 @@ fn fastdds_peer_talks_to_the_node_with_no_mapping_flag() {
         (0.0..0.5).contains(&cmd),
         "command in force after {cmd} s: {v}"
     );
+    // the speed command: drive_motor's velocity is the speed from when the
+    // motor engaged, its position grows at it (over 1 s of simulated time)
+    assert_eq!(v["speed_done"], true, "{v}");
+    assert!(v["speed_velocity_max_err"].as_f64().unwrap() <= 1e-9, "{v}");
+    let rate = v["speed_reel_in_rate"].as_f64().unwrap();
+    assert!((rate - 0.02).abs() <= 1e-6, "reel-in rate {rate}: {v}");
     // the service answers rmw_fastrtps' mapping with no flag, the first call within 1 s
     let lat: Vec<f64> = v["call_latency_s"]
         .as_array()

@@ -223,6 +223,13 @@ fn simulate_mast_recording_decodes_whole_with_both_readers() {
     }
     let fs = &v["mcap"]["final_state"];
     assert_eq!(fs["remaining_dof"], s["dof_final"]);
+    // the drive motor under tension control: its tension, the cable it reeled in
+    assert_eq!(fs["cable_names"], serde_json::json!(["drive"]));
+    assert_eq!(fs["motor_modes"], serde_json::json!(["tension"]));
+    assert_eq!(fs["motor_tensions_n"], serde_json::json!([0.02]));
+    assert!(fs["reeled_in_m"][0].as_f64().unwrap() > 0.1, "{fs}");
+    assert_eq!(fl["cable_tensions_n"], serde_json::json!([0.02]));
+    assert_eq!(fl["rejected_bad_speed"], 0);
     assert_eq!(
         v["mcap"]["joint_names"],
         serde_json::json!([

@@ -51,6 +51,9 @@ def lock_facts(m):
         "time_s": [float(x) for x in m.time_s],
         "impulse_ns": [float(x) for x in m.impulse_ns],
         "deployed": bool(m.deployed),
+        "cable_names": list(m.cable_names),
+        "cable_tensions_n": [float(x) for x in m.cable_tensions_n],
+        "rejected_bad_speed": int(m.rejected_bad_speed),
     }
 
 
@@ -60,6 +63,10 @@ def state_facts(m):
         "last_position": [m.positions[-1].x, m.positions[-1].y, m.positions[-1].z],
         "deploy_fraction": float(m.deploy_fraction),
         "remaining_dof": int(m.remaining_dof),
+        "cable_names": list(m.cable_names),
+        "motor_tensions_n": [float(x) for x in m.motor_tensions_n],
+        "reeled_in_m": [float(x) for x in m.reeled_in_m],
+        "motor_modes": list(m.motor_modes),
     }
 
 

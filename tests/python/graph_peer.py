@@ -101,6 +101,10 @@ class TrussState(IdlStruct, typename="truss_deploy::msg::dds_::TrussState_"):
     velocities: sequence[Vector3]
     deploy_fraction: float64
     remaining_dof: uint32
+    cable_names: sequence[str]
+    motor_tensions_n: sequence[float64]
+    reeled_in_m: sequence[float64]
+    motor_modes: sequence[str]
 
 
 # rcl_interfaces (msg and srv), each request and reply with rmw_cyclonedds_cpp's

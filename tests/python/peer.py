@@ -9,9 +9,13 @@ is ROS 2's DDS mangling pkg::msg::dds_::Type_. The peer
   (d) with PEER_SIM_IF=1: drives the simulation_interfaces services as rmw_cyclonedds_cpp
       calls them (rq/<name>Request, rr/<name>Reply, a 16-byte header of client id and
       sequence number before the request): features, pause, step 5, resume, reset; and
-      joins /truss/lock_status late once more, counting what it gets (must be exactly 1).
+      joins /truss/lock_status late once more, counting what it gets (must be exactly 1);
+  (e) with PEER_SPEED=S: then sends one rt/truss/cable_speed_cmd (CableSpeedCommand, S m/s
+      for `drive`) and reads the `drive_motor` joint on rt/joint_states: from when the motor
+      runs at S, its velocity stays S (to 1e-9) and its position (the cable reeled in) grows
+      at S over 1 s of simulated time (the node must run a mast that stays taut).
 Every loop is bounded in count and time. Exit code 0 iff all of them worked.
-Env: ROS_DOMAIN_ID, PEER_SECS (default 20), PEER_TENSION (default 0.123),
+Env: ROS_DOMAIN_ID, PEER_SECS (default 20), PEER_TENSION (default 0.123), PEER_SPEED,
 CYCLONEDDS_URI (tests pass a loopback-only config).
 """
 import json
@@ -70,6 +74,7 @@ class LockStatus(IdlStruct, typename="truss_deploy::msg::dds_::LockStatus_"):
     rejected_mismatched_lengths: uint32
     rejected_bad_tension: uint32
     rejected_malformed: uint32
+    rejected_bad_speed: uint32
 
 
 # msg/CableForceCommand.msg
@@ -77,6 +82,13 @@ class LockStatus(IdlStruct, typename="truss_deploy::msg::dds_::LockStatus_"):
 class CableForceCommand(IdlStruct, typename="truss_deploy::msg::dds_::CableForceCommand_"):
     names: sequence[str]
     tensions_n: sequence[float64]
+
+
+# msg/CableSpeedCommand.msg
+@dataclass
+class CableSpeedCommand(IdlStruct, typename="truss_deploy::msg::dds_::CableSpeedCommand_"):
+    names: sequence[str]
+    speeds_m_s: sequence[float64]
 
 
 # simulation_interfaces 2.x (tests/data/simulation_interfaces-2.1.0), each request and
@@ -285,6 +297,48 @@ def sim_interfaces(dp, rel10, latched, js_r, xcdr1):
     return out
 
 
+def speed_phase(dp, rel10, js_r, speed, budget_s=10.0):
+    """(e): one speed command; the drive_motor joint on /joint_states after it."""
+    out = {"ok": False, "speed_m_s": speed}
+    w = DataWriter(dp, Topic(dp, "rt/truss/cable_speed_cmd", CableSpeedCommand), qos=rel10)
+    t0 = time.monotonic()
+    for _ in range(int(budget_s / 0.01) + 1):
+        if len(w.get_matched_subscriptions()) or time.monotonic() - t0 > budget_s:
+            break
+        time.sleep(0.01)
+    js_r.take(N=1000)  # what came before the command
+    w.write(CableSpeedCommand(names=["drive"], speeds_m_s=[speed]))
+    first = last = None
+    n, err = 0, 0.0
+    for _ in range(int(budget_s / 0.01) + 1):
+        for s in js_r.take(N=100):
+            names = list(s.name)
+            if "drive_motor" not in names:
+                continue
+            k = names.index("drive_motor")
+            t = s.header.stamp.sec + 1e-9 * s.header.stamp.nanosec
+            e = abs(s.velocity[k] - speed)
+            if first is None and e <= 1e-9:
+                first = (t, s.position[k])
+            elif first is not None and t > first[0]:
+                n += 1
+                err = max(err, e)
+                last = (t, s.position[k])
+        if last is not None and last[0] - first[0] >= 1.0:
+            break
+        if time.monotonic() - t0 > budget_s:
+            break
+        time.sleep(0.01)
+    out["samples"] = n
+    out["velocity_max_err"] = err
+    if first is not None and last is not None:
+        out["sim_s"] = last[0] - first[0]
+        out["reel_in_rate"] = (last[1] - first[1]) / (last[0] - first[0])
+        out["ok"] = (out["sim_s"] >= 1.0 and err <= 1e-9
+                     and abs(out["reel_in_rate"] - speed) <= 1e-6)
+    return out
+
+
 def log(*a):
     print("[peer]", *a, flush=True)
 
@@ -349,6 +403,11 @@ def main() -> int:
         sim_if = sim_interfaces(dp, rel10, latched, js_r, xcdr1)
         log("simulation_interfaces:", sim_if)
         ok = sim_if["ok"]
+    speed = None
+    if ok and os.environ.get("PEER_SPEED"):
+        speed = speed_phase(dp, rel10, js_r, float(os.environ["PEER_SPEED"]))
+        log("speed command:", speed)
+        ok = speed["ok"]
     summary = {
         "joint_states": n_js,
         "joint_names": js_names,
@@ -361,6 +420,7 @@ def main() -> int:
         "rejected": [obeyed.rejected_commands, obeyed.rejected_unknown_cable,
                      obeyed.rejected_mismatched_lengths, obeyed.rejected_bad_tension] if obeyed else None,
         "sim_interfaces": sim_if,
+        "speed": speed,
         "result": "PASS" if ok else "FAIL",
     }
     print("SUMMARY " + json.dumps(summary), flush=True)
