@@ -130,6 +130,10 @@ fn peer(dom: u16) -> Peer {
             qos::reliable10(),
         )
         .unwrap();
+    // Its spinner keeps the publishers' match counts (get_subscription_count
+    // stays 0 without one), so that `send` waits for the node's reader only as
+    // long as it must. (peer() runs inside the tests' runtime.)
+    tokio::spawn(node.spinner().expect("peer spinner").spin());
     Peer {
         js,
         st,
@@ -383,16 +387,31 @@ fn bad_commands_are_rejected_counted_and_publishing_goes_on() {
         wait_lock(&p, 10.0, |m| m.cable_tensions_n == vec![0.01])
             .await
             .expect("good command");
-        // Spaced out: RustDDS 0.15 readers may keep only one of several samples
-        // that arrive in the same instant (see launch_notes.md).
-        // Here only the unknown-cable kind: with a RustDDS writer, later samples
-        // of this test peer were not delivered (see launch_notes.md); all five
-        // kinds are sent by the Cyclone peer in tests/node_cyclone.rs.
-        send(&p, &["nope"], &[0.01]).await;
-        let ls = wait_lock(&p, 5.0, |m| m.rejected_commands >= 1)
+        // One of each kind of fault, back to back, as the Cyclone peer sends
+        // them (tests/node/node_cyclone.rs). (Only the first of them used to be
+        // sent here: `send` waited 10 s each time for a match count the peer
+        // never updated without a spinner, and the node's --max-wall-s ended
+        // before the later ones were written.)
+        for (n, t) in [
+            (&["nope"][..], &[0.01][..]),
+            (&["drive"], &[0.01, 0.02]),
+            (&["drive"], &[-0.01]),
+            (&["drive"], &[f64::NAN]),
+            (&["drive"], &[1e9]),
+        ] {
+            send(&p, n, t).await;
+        }
+        let ls = wait_lock(&p, 5.0, |m| m.rejected_commands >= 5)
             .await
-            .expect("unknown cable rejected and counted");
-        assert_eq!(ls.rejected_unknown_cable, 1);
+            .expect("five bad commands rejected and counted");
+        assert_eq!(
+            (
+                ls.rejected_unknown_cable,
+                ls.rejected_mismatched_lengths,
+                ls.rejected_bad_tension
+            ),
+            (1, 1, 3)
+        );
         assert_eq!(
             ls.cable_tensions_n,
             vec![0.01],
@@ -459,11 +478,7 @@ fn speed_command_drives_the_motor_joint_and_a_bad_one_is_counted() {
     );
     let speed = 0.02;
     rt().block_on(async {
-        let mut p = peer(dom);
-        // the peer's spinner keeps its publishers' match counts, so that
-        // `send_speed` waits for the node's reader only as long as it must
-        let spinner = p.node.spinner().expect("peer spinner");
-        tokio::spawn(spinner.spin());
+        let p = peer(dom);
         send_speed(&p, &["drive"], &[speed]).await;
         // /truss/state: the motor tracks the speed
         let end = Instant::now() + Duration::from_secs(10);
