@@ -517,6 +517,18 @@ pub fn parse(text: &str, file: &str) -> Result<LoadedModel, ModelFileError> {
                 ),
             ));
         }
+        // (its motor is the joint `<cable>_motor` in /joint_states, beside
+        // the elements' joints)
+        let motor = format!("{}_motor", c.name.get_ref());
+        if element_names.contains_key(&motor) {
+            return Err(err(
+                Some(c.name.span()),
+                format!(
+                    "{whose}'s motor is published as the joint `{motor}`, which an element is \
+                     already named; rename the cable or the element"
+                ),
+            ));
+        }
         if c.path.get_ref().len() < 2 {
             return Err(err(
                 Some(c.path.span()),

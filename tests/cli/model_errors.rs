@@ -197,6 +197,12 @@ fn cases() -> Vec<Case> {
             &["unknown field `colour`"],
         ),
         case(
+            "a cable whose motor joint an element already names",
+            vec![("name = \"S1\"", "name = \"drive_motor\"")],
+            Loc::Line("name = \"drive\""),
+            &["`drive_motor`", "rename the cable or the element"],
+        ),
+        case(
             "duplicate joint name",
             vec![("name = \"R1\"", "name = \"R0\"")],
             // the second `R0`: the one declared 4th
