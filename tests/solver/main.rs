@@ -10,6 +10,6 @@ mod elements_oracles;
 mod latch_loads;
 mod sail_array;
 mod solver_settings;
-mod speed_motor;
 mod sparse_vs_dense;
+mod speed_motor;
 mod step_limits;
