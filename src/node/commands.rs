@@ -311,16 +311,20 @@ pub fn apply(
 mod tests {
     use super::*;
 
-    /// Two partial commands for the sail's two cables taken in one tick both
-    /// apply, with a third one for the first cable overriding the first.
-    #[test]
-    fn partial_commands_in_one_tick_merge_in_order() {
+    /// The bundled sail (two drive cables).
+    fn sail_sim() -> crate::solver::Simulator {
         let path = concat!(env!("CARGO_MANIFEST_DIR"), "/models/sail_array.toml");
         let model = crate::model::load(std::path::Path::new(path))
             .unwrap()
             .model;
-        let mut sim =
-            crate::solver::Simulator::new(model, crate::solver::Options::default()).unwrap();
+        crate::solver::Simulator::new(model, crate::solver::Options::default()).unwrap()
+    }
+
+    /// Two partial commands for the sail's two cables taken in one tick both
+    /// apply, with a third one for the first cable overriding the first.
+    #[test]
+    fn partial_commands_in_one_tick_merge_in_order() {
+        let mut sim = sail_sim();
         let mut book = CommandBook::default();
         let mut pending = Pending::default();
         let t0 = Instant::now();
@@ -360,12 +364,7 @@ mod tests {
     #[test]
     fn speed_and_force_commands_merge_in_order_and_bad_speeds_are_rejected() {
         use crate::solver::state::MotorHold;
-        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/models/sail_array.toml");
-        let model = crate::model::load(std::path::Path::new(path))
-            .unwrap()
-            .model;
-        let mut sim =
-            crate::solver::Simulator::new(model, crate::solver::Options::default()).unwrap();
+        let mut sim = sail_sim();
         let mut book = CommandBook::default();
         let mut pending = Pending::default();
         let t0 = Instant::now();

@@ -8,6 +8,20 @@
 /// process id spreads concurrent test processes over 7 blocks of 32; every id
 /// stays <= 224, whose RTPS ports are below 65536.
 /// Slots: node_dds 0-3 and 22, node_fastdds 4, node_cyclone 5, record_mcap 6-9, node_ros 10-21.
+/// The four-unit mast's `/joint_states` names: each scissor hinge and
+/// sleeve, then the drive cable's motor.
+pub const MAST_JOINTS: [&str; 9] = [
+    "U1",
+    "S1",
+    "U2",
+    "S2",
+    "U3",
+    "S3",
+    "U4",
+    "S4",
+    "drive_motor",
+];
+
 pub fn domain(slot: u16) -> u16 {
     assert!(slot < 32, "domain slot {slot}");
     1 + (std::process::id() as u16 % 7) * 32 + slot

@@ -75,20 +75,7 @@ fn cyclone_python_peer_talks_to_the_node() {
         .iter()
         .map(|x| x.as_str().unwrap())
         .collect();
-    assert_eq!(
-        names,
-        [
-            "U1",
-            "S1",
-            "U2",
-            "S2",
-            "U3",
-            "S3",
-            "U4",
-            "S4",
-            "drive_motor"
-        ]
-    );
+    assert_eq!(names, super::MAST_JOINTS);
     assert!(
         v["late_lock_stamp_s"].as_f64().unwrap() < 0.5,
         "stored sample"

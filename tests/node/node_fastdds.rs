@@ -118,20 +118,7 @@ fn fastdds_peer_talks_to_the_node_with_no_mapping_flag() {
         .iter()
         .map(|x| x.as_str().unwrap())
         .collect();
-    assert_eq!(
-        names,
-        [
-            "U1",
-            "S1",
-            "U2",
-            "S2",
-            "U3",
-            "S3",
-            "U4",
-            "S4",
-            "drive_motor"
-        ]
-    );
+    assert_eq!(names, super::MAST_JOINTS);
     assert!(v["joint_states"].as_u64().unwrap() >= 20, "{v}");
     // the command written the moment the writer matched is in force, and shown
     // on LockStatus, well within a second (main at 3231346: 0.94 to 0.98 s in 4 of

@@ -232,17 +232,7 @@ fn simulate_mast_recording_decodes_whole_with_both_readers() {
     assert_eq!(fl["rejected_bad_speed"], 0);
     assert_eq!(
         v["mcap"]["joint_names"],
-        serde_json::json!([
-            "U1",
-            "S1",
-            "U2",
-            "S2",
-            "U3",
-            "S3",
-            "U4",
-            "S4",
-            "drive_motor"
-        ])
+        serde_json::json!(super::MAST_JOINTS)
     );
 
     // --mcap-rate 4: t = 0, every 0.25 s of simulated time, and the end

@@ -426,13 +426,8 @@ impl Simulator {
                     m.tension_cmd_n = self.state.cable_tension_cmd_n[cable];
                 }
                 m.speed_cmd_m_s = Some(s);
-                if m.hold == MotorHold::Tracking {
-                    // a new speed: the velocities jump to it
-                    m.hold = MotorHold::AtLimit;
-                }
-                if m.hold == MotorHold::Tension {
-                    m.hold = MotorHold::AtLimit;
-                }
+                // (a new speed, or one from tension control: the velocities
+                // jump to it)
                 self.motor_engage(cable)?;
             }
         }
