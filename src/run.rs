@@ -79,6 +79,9 @@ pub struct RunSummary {
     /// What the solver did: steps, sub-steps, iterations, factorizations,
     /// solves, fallbacks by kind, latch searches.
     pub solver_stats: SolverStats,
+    /// Results accepted by a fallback that knows them inexact
+    /// (`SolverStats::accepting_fallbacks`): 0 when the run needed no rescue.
+    pub accepting_fallbacks: u64,
     /// Per drive cable, its motor at the end of the run.
     pub motors: Vec<MotorSummary>,
 }
@@ -348,6 +351,7 @@ pub fn summarize(
         error: (reason == StopReason::Error).then(|| message.clone()),
         stop_message: message,
         solver_stats: sim.solver_stats().clone(),
+        accepting_fallbacks: sim.solver_stats().accepting_fallbacks(),
         motors: m
             .cables
             .iter()

@@ -455,6 +455,19 @@ fn print_summary(s: &SimulateJson) {
         st.solves,
         st.fallbacks.solve_unconverged
     );
+    let accepted = st.accepting_fallbacks();
+    if accepted > 0 {
+        let kinds: Vec<String> = st
+            .accepting_fallbacks_by_kind()
+            .iter()
+            .filter(|(_, n)| *n > 0)
+            .map(|(kind, n)| format!("{n} {kind}"))
+            .collect();
+        say!(
+            "rescued          {accepted} results accepted inexact: {} (docs/solver.md)",
+            kinds.join(", ")
+        );
+    }
     if st.fallbacks.solve_unconverged * 10 > st.solves {
         // (the run's checks still hold: balance, |Phi|; what suffers is the time)
         say!(

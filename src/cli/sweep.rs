@@ -277,6 +277,14 @@ fn print_summary(s: &Summary) {
         .map(|(k, v)| format!("{k} {v}"))
         .collect();
     say!("stop reasons: {}", reasons.join(", "));
+    if s.rescued > 0 {
+        say!(
+            "rescued: {} of {} samples accepted results their solver knows inexact \
+             (column accepting_fallbacks; docs/solver.md): their figures rest on rescue",
+            s.rescued,
+            s.samples
+        );
+    }
     let q = |name: &str, unit: &str, q: &Option<crate::sweep::stats::Quantiles>| {
         match q {
         Some(q) => say!(

@@ -142,6 +142,41 @@ pub struct Fallbacks {
 }
 
 impl SolverStats {
+    /// The fallbacks that accept a result known to be inexact, by name:
+    /// solves stopped at their iteration limit, the cable inertia's fixed
+    /// point stopped at its limit, sub-steps accepted although they made
+    /// energy or missed their ledger's budget at the shortest length, and
+    /// latches made by moving the truss onto a lock rather than by its
+    /// motion reaching it (captures after a failed sub-step, captures within
+    /// a latch's capture range, closings onto every lock). The others
+    /// (halvings, restarts, Newton switches, refactorizations, ...) change
+    /// the route to a result that meets its tolerance.
+    pub fn accepting_fallbacks_by_kind(&self) -> [(&'static str, u64); 7] {
+        let f = &self.fallbacks;
+        [
+            ("unconverged solves", f.solve_unconverged),
+            ("unconverged inertia fixed points", f.consistent_unconverged),
+            ("sub-steps making energy", f.substep_energy_accepted),
+            (
+                "sub-steps over their ledger's budget",
+                f.ledger_budget_exceeded,
+            ),
+            ("captures after a failed sub-step", f.latch_captured),
+            ("captures within a capture range", self.latch_range_captures),
+            ("closings onto every lock", f.latch_closed),
+        ]
+    }
+
+    /// How many results were accepted by a fallback that knows them inexact
+    /// (the sum of `accepting_fallbacks_by_kind`): 0 for a run that needed
+    /// no rescue.
+    pub fn accepting_fallbacks(&self) -> u64 {
+        self.accepting_fallbacks_by_kind()
+            .iter()
+            .map(|(_, n)| n)
+            .sum()
+    }
+
     /// The counters as one line (for `bench` and the node's shutdown log).
     pub fn line(&self) -> String {
         let f = &self.fallbacks;

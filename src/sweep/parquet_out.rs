@@ -187,6 +187,7 @@ pub fn to_parquet(
     cols.push(opt_i64("solves", u(|r| r.solves)));
     cols.push(opt_i64("substep_halvings", u(|r| r.substep_halvings)));
     cols.push(opt_i64("solve_unconverged", u(|r| r.solve_unconverged)));
+    cols.push(opt_i64("accepting_fallbacks", u(|r| r.accepting_fallbacks)));
     cols.push(list_col(
         "latch_name",
         "binary",

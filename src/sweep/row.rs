@@ -69,6 +69,9 @@ pub struct Row {
     pub solves: Option<u64>,
     pub substep_halvings: Option<u64>,
     pub solve_unconverged: Option<u64>,
+    /// Results accepted by a fallback that knows them inexact
+    /// (`SolverStats::accepting_fallbacks`).
+    pub accepting_fallbacks: Option<u64>,
     /// The latches in the order they happened.
     pub latches: Vec<LatchRow>,
     /// The largest latch impulse (N s) and peak force (N; compliant latches).
@@ -112,6 +115,7 @@ impl Row {
             solves: None,
             substep_halvings: None,
             solve_unconverged: None,
+            accepting_fallbacks: None,
             latches: Vec::new(),
             max_latch_impulse_ns: None,
             max_latch_peak_force_n: None,
@@ -162,6 +166,7 @@ impl Row {
             solves: Some(st.solves),
             substep_halvings: Some(st.fallbacks.substep_halvings),
             solve_unconverged: Some(st.fallbacks.solve_unconverged),
+            accepting_fallbacks: Some(st.accepting_fallbacks()),
             max_latch_impulse_ns: max(|l| Some(l.impulse_ns)),
             max_latch_peak_force_n: max(|l| l.peak_force_n),
             last_latch: latches

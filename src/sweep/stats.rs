@@ -124,6 +124,10 @@ pub struct Summary {
     /// Rows whose stop reason is error, invalid or panic.
     pub failed: u64,
     pub deployed: u64,
+    /// Rows that ran and needed a fallback that accepts a result known to
+    /// be inexact (`accepting_fallbacks` > 0): what of the study rests on
+    /// rescue rather than on the model.
+    pub rescued: u64,
     pub p_deploy: f64,
     /// 95 % Wilson interval of `p_deploy`.
     pub p_deploy_low: f64,
@@ -173,6 +177,10 @@ pub fn summarize(
         .filter(|r| r.deployed && r.deploy_time_s.is_some())
         .collect();
     let k = dep.len() as u64;
+    let rescued = rows
+        .iter()
+        .filter(|r| r.accepting_fallbacks.is_some_and(|n| n > 0))
+        .count() as u64;
     let (lo, hi) = wilson(k, n, Z95);
     let times: Vec<f64> = dep.iter().filter_map(|r| r.deploy_time_s).collect();
     let loaded: Vec<&Row> = rows
@@ -214,6 +222,7 @@ pub fn summarize(
         stop_reasons,
         failed,
         deployed: k,
+        rescued,
         p_deploy: if n > 0 { k as f64 / n as f64 } else { 0.0 },
         p_deploy_low: lo,
         p_deploy_high: hi,
@@ -230,6 +239,24 @@ pub fn summarize(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn rescued_counts_the_rows_that_accepted_an_inexact_result() {
+        let row = |i: u64, reason: &str, accepting: Option<u64>| {
+            let mut r = Row::failed(i, i, vec![1.0], reason, String::new());
+            r.accepting_fallbacks = accepting;
+            r
+        };
+        let rows = [
+            row(0, "deployed", Some(0)),
+            row(1, "deployed", Some(3)),
+            row(2, "error", Some(1)),
+            row(3, "invalid", None),
+        ];
+        let s = summarize("t", "id", &["k".into()], &["p_k".into()], &rows);
+        assert_eq!(s.rescued, 2);
+        assert_eq!(s.samples, 4);
+    }
 
     #[test]
     fn wilson_closed_form() {

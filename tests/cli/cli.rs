@@ -173,6 +173,24 @@ fn simulate_mast_deploys() {
     );
     let out = String::from_utf8_lossy(&o.stdout);
     assert!(out.contains(&line), "`{line}` not in:\n{out}");
+    // the bundled mast needs no fallback that accepts an inexact result: the
+    // JSON's count is the sum of those counters, and no `rescued` line
+    let f = &st["fallbacks"];
+    let by_hand: u64 = [
+        &f["solve_unconverged"],
+        &f["consistent_unconverged"],
+        &f["substep_energy_accepted"],
+        &f["ledger_budget_exceeded"],
+        &f["latch_captured"],
+        &st["latch_range_captures"],
+        &f["latch_closed"],
+    ]
+    .iter()
+    .map(|v| v.as_u64().expect("counter"))
+    .sum();
+    assert_eq!(s["accepting_fallbacks"].as_u64(), Some(by_hand), "{s:#}");
+    assert_eq!(by_hand, 0, "{st:#}");
+    assert!(!out.contains("rescued"), "{out}");
     assert!(!out.contains("did not converge"), "{out}");
     let deploy = num(&s, "deploy_time_s");
     assert!(deploy > 0.0 && deploy <= num(&s, "time_s"), "{s:#}");

@@ -547,6 +547,7 @@ df = pd.read_parquet(sys.argv[1])
 lat = df[["index", "latch_name", "latch_peak_force_n"]].explode(["latch_name", "latch_peak_force_n"])
 print(json.dumps({"rows": t.num_rows, "index": df["index"].tolist(), "deploy": df["deploy_time_s"].tolist(),
   "mu": df["p_cable_drive_friction_mu"].tolist(), "latches": int(lat.shape[0]),
+  "accepting": [int(x) for x in df["accepting_fallbacks"]],
   "seed": [int(x) for x in df["seed"]], "meta": t.schema.metadata[b"truss_deploy.sweep"].decode()}))
 "#;
     let o = Command::new(&py)
@@ -565,6 +566,7 @@ print(json.dumps({"rows": t.num_rows, "index": df["index"].tolist(), "deploy": d
         assert_eq!(v["deploy"][i], row["deploy_time_s"], "sample {i}");
         assert_eq!(v["mu"][i], row["params"][0], "sample {i}");
         assert_eq!(v["seed"][i], row["seed"], "sample {i}");
+        assert_eq!(v["accepting"][i], row["accepting_fallbacks"], "sample {i}");
     }
     let latches: usize = r
         .values()

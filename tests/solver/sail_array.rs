@@ -181,6 +181,10 @@ fn full_deployment_reaches_the_reference() {
     assert!(err <= 1e-6, "final error {err}");
     assert!(s.max_violation_m <= 1e-9, "violation {}", s.max_violation_m);
     assert_eq!(s.locks.len(), 2);
+    // no result accepted inexact on the way (unconverged solves, sub-steps
+    // over their ledger, captures, closings)
+    let st = sim.solver_stats();
+    assert_eq!(st.accepting_fallbacks(), 0, "{st:?}");
     let t = s.deploy_time_s.unwrap();
     assert!(t > 10.0 && t < 100.0, "deploy time {t}");
 }
