@@ -188,13 +188,33 @@ pub fn unlatched_summary(model: &Model, state: &State) -> String {
 
 /// A truss rigid (no mechanism left) with sleeves unlatched, farther than
 /// `jam_error_rel` from its reference geometry: it locked up short of
-/// deployment. Returns the stop message; None when it is deployed (every
-/// sleeve latched, or within the tolerance) or has no reference to tell.
+/// deployment. Without a reference, the same for its unlatched sleeves: one
+/// farther from its lock length than `jam_error_rel` of the truss's size
+/// (the largest extent of its joints) is held short. Returns the stop
+/// message; None when it is deployed (every sleeve latched, or within the
+/// tolerance).
 pub fn jammed(model: &Model, state: &State, checks: &RunChecks) -> Option<String> {
     if !state.deployed || model.locks.iter().all(|&e| state.locked[e]) {
         return None;
     }
-    let err = state.final_error_rel(model)?;
+    let Some(err) = state.final_error_rel(model) else {
+        let size = extent_m(&state.x);
+        let gap = model
+            .locks
+            .iter()
+            .filter(|&&e| !state.locked[e])
+            .filter_map(|&e| model.elements[e].lock_gap(&state.x))
+            .fold(0.0f64, |m, g| m.max(g.abs()));
+        let rel = gap / size;
+        return (rel > checks.jam_error_rel).then(|| {
+            format!(
+                "jammed at t = {:.6} s: rigid (no mechanism left) with a sleeve {gap:.3e} m ({rel:.3e} of its size) from its lock length (> [checks] jam_error_rel = {:e}); {}",
+                state.t_s,
+                checks.jam_error_rel,
+                unlatched_summary(model, state)
+            )
+        });
+    };
     (err > checks.jam_error_rel).then(|| {
         format!(
             "jammed at t = {:.6} s: rigid (no mechanism left) {err:.3e} of its size from the deployed geometry (> [checks] jam_error_rel = {:e}); {}",
@@ -203,6 +223,22 @@ pub fn jammed(model: &Model, state: &State, checks: &RunChecks) -> Option<String
             unlatched_summary(model, state)
         )
     })
+}
+
+/// The largest extent of the joints at `x` along a coordinate axis (m).
+fn extent_m(x: &[f64]) -> f64 {
+    (0..3)
+        .map(|k| {
+            let (lo, hi) = x
+                .iter()
+                .skip(k)
+                .step_by(3)
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
+                    (lo.min(*v), hi.max(*v))
+                });
+            hi - lo
+        })
+        .fold(0.0, f64::max)
 }
 
 /// The unlatched sleeves whose length the constraints at `locked` fix at
@@ -477,6 +513,35 @@ mod tests {
         );
         s.x.clone_from(m.reference.as_ref().unwrap());
         assert_eq!(jammed(m, &s, &checks), None, "at the reference");
+        s.x.clone_from(&m.x0);
+        for &e in &m.locks {
+            s.locked[e] = true;
+        }
+        assert_eq!(jammed(m, &s, &checks), None, "every sleeve latched");
+    }
+
+    /// Without a reference geometry the unlatched sleeves' gaps tell: rigid
+    /// at the start geometry (the mast's sleeves far from their locks) is a
+    /// jam; at the deployed geometry (every gap 0), with every sleeve
+    /// latched, or not rigid, none.
+    #[test]
+    fn rigid_short_of_a_lock_is_a_jam_without_a_reference() {
+        let text = generate::mast(&MastParams::default()).unwrap().to_toml();
+        let mut model = crate::model::parse(&text, "mast.toml").unwrap().model;
+        let deployed_x = model.reference.take().expect("the mast has a reference");
+        let sim = Simulator::new(model, Options::default()).unwrap();
+        let (m, checks) = (sim.model(), RunChecks::default());
+        assert!(m.reference.is_none());
+        let mut s = sim.state().clone();
+        assert_eq!(jammed(m, &s, &checks), None, "not rigid");
+        s.deployed = true;
+        s.locked[m.locks[0]] = true;
+        let msg = jammed(m, &s, &checks).expect("a jam at the start geometry");
+        println!("{msg}");
+        assert!(msg.starts_with("jammed at t = 0.000000 s"), "{msg}");
+        assert!(msg.contains("from its lock length"), "{msg}");
+        s.x = deployed_x;
+        assert_eq!(jammed(m, &s, &checks), None, "at the deployed geometry");
         s.x.clone_from(&m.x0);
         for &e in &m.locks {
             s.locked[e] = true;

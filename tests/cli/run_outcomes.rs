@@ -701,8 +701,8 @@ fn a_sleeve_held_short_by_a_latch_stops_the_run_naming_it() {
     }
     // [checks] held_short_confirm_s is read: with it out of reach the watch
     // never fires, and the truss runs on until E latches (~25 s) and it
-    // turns rigid (with no reference geometry to tell a jam from a
-    // deployment, that counts as deployed: docs/cli.md, stop reasons)
+    // turns rigid with s2 1.5 m from its lock: a jam (no reference
+    // geometry here: the unlatched sleeve's gap tells, docs/cli.md)
     let text_off = truss(1.0, "").replace(
         "[settings]",
         "[checks]\nheld_short_confirm_s = 1e300\nheld_short_rel_gap = 1e-3\n[settings]",
@@ -712,6 +712,12 @@ fn a_sleeve_held_short_by_a_latch_stops_the_run_naming_it() {
     let s = read_json(&j);
     let msg = s["stop_message"].as_str().unwrap();
     assert!(!msg.contains("is held"), "{msg}");
+    assert!(
+        msg.starts_with("jammed at t = ") && msg.contains("a sleeve 1.500e0 m"),
+        "{msg}"
+    );
+    assert_eq!(s["stop_reason"], "stalled", "{s}");
+    assert_eq!(s["deployed"], false, "{s}");
     assert!(s["time_s"].as_f64().unwrap() > 20.0, "{s}");
     assert!(
         s["locks"]
@@ -721,7 +727,7 @@ fn a_sleeve_held_short_by_a_latch_stops_the_run_naming_it() {
             .any(|l| l["name"] == "s3"),
         "{s}"
     );
-    assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o.stderr));
     std::fs::write(&m, truss(2.5, "")).unwrap();
     let o = simulate();
     assert_eq!(o.status.code(), Some(0), "{}", text(&o.stderr));
