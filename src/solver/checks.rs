@@ -190,7 +190,7 @@ pub fn unlatched_summary(model: &Model, state: &State) -> String {
 /// `jam_error_rel` from its reference geometry: it locked up short of
 /// deployment. Without a reference, the same for its unlatched sleeves: one
 /// farther from its lock length than `jam_error_rel` of the truss's size
-/// (the largest extent of its joints) is held short. Returns the stop
+/// (`structure_size_m`) is held short. Returns the stop
 /// message; None when it is deployed (every sleeve latched, or within the
 /// tolerance).
 pub fn jammed(model: &Model, state: &State, checks: &RunChecks) -> Option<String> {
@@ -198,7 +198,7 @@ pub fn jammed(model: &Model, state: &State, checks: &RunChecks) -> Option<String
         return None;
     }
     let Some(err) = state.final_error_rel(model) else {
-        let size = extent_m(&state.x);
+        let size = structure_size_m(model);
         let gap = model
             .locks
             .iter()
@@ -223,22 +223,6 @@ pub fn jammed(model: &Model, state: &State, checks: &RunChecks) -> Option<String
             unlatched_summary(model, state)
         )
     })
-}
-
-/// The largest extent of the joints at `x` along a coordinate axis (m).
-fn extent_m(x: &[f64]) -> f64 {
-    (0..3)
-        .map(|k| {
-            let (lo, hi) = x
-                .iter()
-                .skip(k)
-                .step_by(3)
-                .fold((f64::INFINITY, f64::NEG_INFINITY), |(lo, hi), v| {
-                    (lo.min(*v), hi.max(*v))
-                });
-            hi - lo
-        })
-        .fold(0.0, f64::max)
 }
 
 /// The unlatched sleeves whose length the constraints at `locked` fix at
@@ -486,66 +470,48 @@ mod tests {
     use crate::model::generate::{self, MastParams};
     use crate::solver::{Options, Simulator};
 
-    /// Rigid with sleeves unlatched is a jam only away from the reference:
-    /// at the start geometry (far from it) a jam naming the nearest open
-    /// sleeve; at the reference, with every sleeve latched, or not rigid,
-    /// none.
+    /// Rigid with sleeves unlatched is a jam only away from the deployed
+    /// geometry: at the start geometry (far from it) a jam naming the open
+    /// sleeves; at the deployed geometry, with every sleeve latched, or not
+    /// rigid, none. With the mast's reference geometry, and without it (the
+    /// unlatched sleeves' gaps then tell: every gap is 0 when deployed).
     #[test]
-    fn rigid_short_of_the_reference_is_a_jam() {
-        let text = generate::mast(&MastParams::default()).unwrap().to_toml();
-        let model = crate::model::parse(&text, "mast.toml").unwrap().model;
-        let sim = Simulator::new(model, Options::default()).unwrap();
-        let (m, checks) = (sim.model(), RunChecks::default());
-        let mut s = sim.state().clone();
-        assert_eq!(jammed(m, &s, &checks), None, "not rigid");
-        s.deployed = true;
-        s.locked[m.locks[0]] = true;
-        let msg = jammed(m, &s, &checks).expect("a jam at the start geometry");
-        println!("{msg}");
-        assert!(msg.starts_with("jammed at t = 0.000000 s"), "{msg}");
-        assert!(
-            msg.contains(&format!(
+    fn rigid_short_of_the_deployed_geometry_is_a_jam() {
+        for with_reference in [true, false] {
+            let text = generate::mast(&MastParams::default()).unwrap().to_toml();
+            let mut model = crate::model::parse(&text, "mast.toml").unwrap().model;
+            let deployed_x = model.reference.clone().expect("the mast has a reference");
+            if !with_reference {
+                model.reference = None;
+            }
+            let sim = Simulator::new(model, Options::default()).unwrap();
+            let (m, checks) = (sim.model(), RunChecks::default());
+            let mut s = sim.state().clone();
+            assert_eq!(jammed(m, &s, &checks), None, "not rigid");
+            s.deployed = true;
+            s.locked[m.locks[0]] = true;
+            let msg = jammed(m, &s, &checks).expect("a jam at the start geometry");
+            println!("{msg}");
+            assert!(msg.starts_with("jammed at t = 0.000000 s"), "{msg}");
+            let open = format!(
                 "{} of {} sleeves unlatched",
                 m.locks.len() - 1,
                 m.locks.len()
-            )),
-            "{msg}"
-        );
-        s.x.clone_from(m.reference.as_ref().unwrap());
-        assert_eq!(jammed(m, &s, &checks), None, "at the reference");
-        s.x.clone_from(&m.x0);
-        for &e in &m.locks {
-            s.locked[e] = true;
+            );
+            assert!(msg.contains(&open), "{msg}");
+            let measure = if with_reference {
+                "from the deployed geometry"
+            } else {
+                "from its lock length (>"
+            };
+            assert!(msg.contains(measure), "{msg}");
+            s.x.clone_from(&deployed_x);
+            assert_eq!(jammed(m, &s, &checks), None, "at the deployed geometry");
+            s.x.clone_from(&m.x0);
+            for &e in &m.locks {
+                s.locked[e] = true;
+            }
+            assert_eq!(jammed(m, &s, &checks), None, "every sleeve latched");
         }
-        assert_eq!(jammed(m, &s, &checks), None, "every sleeve latched");
-    }
-
-    /// Without a reference geometry the unlatched sleeves' gaps tell: rigid
-    /// at the start geometry (the mast's sleeves far from their locks) is a
-    /// jam; at the deployed geometry (every gap 0), with every sleeve
-    /// latched, or not rigid, none.
-    #[test]
-    fn rigid_short_of_a_lock_is_a_jam_without_a_reference() {
-        let text = generate::mast(&MastParams::default()).unwrap().to_toml();
-        let mut model = crate::model::parse(&text, "mast.toml").unwrap().model;
-        let deployed_x = model.reference.take().expect("the mast has a reference");
-        let sim = Simulator::new(model, Options::default()).unwrap();
-        let (m, checks) = (sim.model(), RunChecks::default());
-        assert!(m.reference.is_none());
-        let mut s = sim.state().clone();
-        assert_eq!(jammed(m, &s, &checks), None, "not rigid");
-        s.deployed = true;
-        s.locked[m.locks[0]] = true;
-        let msg = jammed(m, &s, &checks).expect("a jam at the start geometry");
-        println!("{msg}");
-        assert!(msg.starts_with("jammed at t = 0.000000 s"), "{msg}");
-        assert!(msg.contains("from its lock length"), "{msg}");
-        s.x = deployed_x;
-        assert_eq!(jammed(m, &s, &checks), None, "at the deployed geometry");
-        s.x.clone_from(&m.x0);
-        for &e in &m.locks {
-            s.locked[e] = true;
-        }
-        assert_eq!(jammed(m, &s, &checks), None, "every sleeve latched");
     }
 }
