@@ -474,7 +474,8 @@ fn print_summary(s: &SimulateJson) {
             "                 more than a tenth of the solves did not converge: the constraints \
              are nearly redundant here (a configuration close to singular, such as a ring's \
              last bays near flat; `cargo run --release --example near_singular` on a restart, \
-             docs/double_ring_stowing.md Session 9), which is what makes such a run slow"
+             docs/double_ring_stowing.md, \"The 36-sided ring's endgame is a near-singular \
+             configuration\"), which is what makes such a run slow"
         );
     }
     if !s.locks.is_empty() {
