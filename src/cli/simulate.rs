@@ -424,7 +424,7 @@ fn print_summary(s: &SimulateJson) {
     say!("max |Phi|        {:.3e} m", s.max_constraint_violation_m);
     say!(
         "energy           motor {:.6e} J, friction {:.3e} J, damping {:.3e} J, latches {:.6e} J, kinetic {:.6e} J, elastic {:.3e} J; balance error {:.2e}",
-        s.energy.motor_work_j, s.energy.friction_loss_j, s.energy.damping_loss_j, s.energy.lock_loss_j + s.energy.latch_damping_loss_j, s.kinetic_energy_j, s.energy.latch_spring_energy_j + s.energy.element_spring_energy_j, s.energy_balance_rel_error
+        s.energy.motor_work_j, s.energy.friction_loss_j, s.energy.damping_loss_j + s.energy.member_damping_loss_j, s.energy.lock_loss_j + s.energy.latch_damping_loss_j, s.kinetic_energy_j, s.energy.latch_spring_energy_j + s.energy.element_spring_energy_j + s.energy.member_strain_energy_j, s.energy_balance_rel_error
     );
     for mo in &s.motors {
         if let Some(speed) = mo.speed_cmd_m_s {

@@ -31,6 +31,17 @@ pub struct SolverSettings {
     pub initial_tol_m: f64,
 
     // --- Newmark integration (stage `integrator`) ---
+    /// Members are elastic in the Newmark step: each member row holds
+    /// Phi + c lambda = 0 (c = L / EA, the element's `axial_stiffness_n`),
+    /// rows that are not members hold it with c = 1e-6 of the stiffest
+    /// member's, and the step solves positions and multipliers together
+    /// (index 3) instead of projecting onto the rigid constraints.
+    pub elastic_members: bool,
+    /// Elastic members' relaxation time tau (s): each row holds
+    /// Phi + tau Phidot + c lambda = 0, a Kelvin-Voigt member whose axial
+    /// vibration (far above any step's resolution) is overdamped instead of
+    /// ringing undamped under the trapezoidal rule.
+    pub member_relaxation_s: f64,
     /// Fixed-point iterations of one Newmark step before it counts as not converged.
     pub newmark_max_iterations: usize,
     /// The iteration has converged when the estimated error of the
@@ -234,6 +245,8 @@ impl Default for SolverSettings {
             velocity_redo_ratio: 100.0,
             velocity_redo_floor_rel: 1e-10,
             initial_tol_m: 1e-6,
+            elastic_members: false,
+            member_relaxation_s: 0.1,
             newmark_max_iterations: 60,
             newmark_tol_rel: 1e-12,
             newmark_tol_position_m: 1e-14,
@@ -291,6 +304,7 @@ impl SolverSettings {
     pub fn validate(&self) -> Result<(), String> {
         let positive = [
             ("projection_tol_m", self.projection_tol_m),
+            ("member_relaxation_s", self.member_relaxation_s),
             ("projection_accept_factor", self.projection_accept_factor),
             (
                 "projection_min_contraction",

@@ -112,6 +112,11 @@ pub struct Energy {
     /// Elastic energy compliant elements (`Constraint::spring`) gained since
     /// the start (J); their dampers' loss is in `damping_loss_j`.
     pub element_spring_energy_j: f64,
+    /// Elastic energy held in elastic members now, 1/2 sum c_i lambda_i^2
+    /// (J; `SolverSettings::elastic_members`).
+    pub member_strain_energy_j: f64,
+    /// Energy elastic members' dampers took (J; `SolverSettings::elastic_members`).
+    pub member_damping_loss_j: f64,
 }
 
 impl Energy {
@@ -122,7 +127,9 @@ impl Energy {
             - self.lock_loss_j
             - self.latch_damping_loss_j
             - self.latch_spring_energy_j
-            - self.element_spring_energy_j;
+            - self.element_spring_energy_j
+            - self.member_strain_energy_j
+            - self.member_damping_loss_j;
         (kinetic_j - net).abs() / self.scale_j(kinetic_j)
     }
 

@@ -6,6 +6,7 @@ mod bay_by_bay_ring;
 mod compliant_elements;
 mod double_ring;
 mod dynamics;
+mod elastic_members;
 mod elements_oracles;
 mod latch_loads;
 mod sail_array;

@@ -281,6 +281,57 @@ fn compare_single(model: &Model, x: &[f64], locked: &[bool], seed: u64) {
             "{label}: joint forces differ by {ef:e} (relative)"
         );
     }
+    // Compliant solves (elastic members): (S + D) lambda = -c - A M^-1 q is
+    // nonsingular, so the multipliers are unique: the same in both backends,
+    // and both satisfy M a = q + A^T lambda, A a + D lambda = -c. D spans the
+    // members' (1e-5) to the rigid rows' (1e-11) scale; twice, the second
+    // time from the sparse backend's kept factorization.
+    {
+        let d: Vec<f64> = (0..m)
+            .map(|i| {
+                if i % 3 == 0 {
+                    1e-11
+                } else {
+                    1e-5 * (1.5 + rng.next())
+                }
+            })
+            .collect();
+        for pass in 0..2 {
+            let (mut ad, mut ld) = (vec![0.0; n], vec![0.0; m]);
+            let (mut as_, mut ls) = (vec![0.0; n], vec![0.0; m]);
+            dense
+                .compliant_accelerations(&jac, &model.inv_mass, &d, &q, &c_far, &mut ad, &mut ld)
+                .unwrap();
+            let report = sparse
+                .compliant_accelerations(&jac, &model.inv_mass, &d, &q, &c_far, &mut as_, &mut ls)
+                .unwrap();
+            assert!(report.converged, "{report:?}");
+            let ea = max_diff(&ad, &as_) / max_abs(&ad);
+            let el = max_diff(&ld, &ls) / max_abs(&ld);
+            // the equations themselves, for the sparse answer
+            let f = forces(&ls);
+            let dyn_err = (0..n)
+                .map(|i| (as_[i] / model.inv_mass[i] - q[i] - f[i]).abs())
+                .fold(0.0f64, f64::max)
+                / max_abs(&q);
+            let mut aa = vec![0.0; m];
+            jac.mul(&as_, &mut aa);
+            let con_err = (0..m)
+                .map(|i| (aa[i] + d[i] * ls[i] + c_far[i]).abs())
+                .fold(0.0f64, f64::max)
+                / max_abs(&c_far);
+            eprintln!(
+                "compliant (pass {pass}): rel. diff accelerations {ea:.1e}, multipliers {el:.1e}; \
+                 equations {dyn_err:.1e}, {con_err:.1e}"
+            );
+            assert!(ea <= 1e-8, "compliant accelerations differ by {ea:e}");
+            assert!(el <= 1e-8, "compliant multipliers differ by {el:e}");
+            assert!(
+                dyn_err <= 1e-10 && con_err <= 1e-8,
+                "{dyn_err:e} {con_err:e}"
+            );
+        }
+    }
     {
         let (mut dd, mut md) = (vec![0.0; n], vec![0.0; m]);
         let (mut ds, mut ms) = (vec![0.0; n], vec![0.0; m]);

@@ -118,6 +118,48 @@ impl ConstraintSolver for DenseNullSpace {
         Ok(SolveReport::DIRECT)
     }
 
+    fn compliant_accelerations(
+        &mut self,
+        jac: &Jacobian,
+        inv_mass: &[f64],
+        d: &[f64],
+        q: &[f64],
+        c: &[f64],
+        a: &mut [f64],
+        lambda: &mut [f64],
+    ) -> Result<SolveReport, SolverError> {
+        let (m, n) = (jac.nrows, jac.ncols);
+        for i in 0..n {
+            a[i] = q[i] * inv_mass[i];
+        }
+        if m == 0 {
+            return Ok(SolveReport::DIRECT);
+        }
+        let mut b = DMatrix::<f64>::zeros(m, n);
+        jac.for_each(|r, col, v| b[(r, col)] += v);
+        if b.iter().any(|v| !v.is_finite()) {
+            return Err(SolverError::NonFiniteJacobian);
+        }
+        // S + D = A M^-1 A^T + D
+        let bw = DMatrix::from_fn(m, n, |r, col| b[(r, col)] * inv_mass[col]);
+        let mut s = &bw * b.transpose();
+        for r in 0..m {
+            s[(r, r)] += d[r];
+        }
+        let ab = &b * DVector::from_column_slice(a);
+        let rhs = DVector::from_fn(m, |r, _| -c[r] - ab[r]);
+        let chol = s
+            .cholesky()
+            .ok_or_else(|| SolverError::NonFinite("compliant constraint operator".into()))?;
+        let l = chol.solve(&rhs);
+        let g = bw.transpose() * &l;
+        for i in 0..n {
+            a[i] += g[i];
+        }
+        lambda[..m].copy_from_slice(l.as_slice());
+        Ok(SolveReport::DIRECT)
+    }
+
     fn correction(
         &mut self,
         _jac: &Jacobian,

@@ -97,6 +97,23 @@ pub trait ConstraintSolver: Send {
         a: &mut [f64],
         lambda: &mut [f64],
     ) -> Result<SolveReport, SolverError>;
+    /// Accelerations of elastic members: M a = Q + A^T lambda with
+    /// A a + D lambda = -c, D = diag(`d`) > 0 (a compliance per row, scaled
+    /// to the step), so (S + D) lambda = -c - A M^-1 Q: positive definite
+    /// however redundant or nearly redundant the rows are. Factors by itself
+    /// at the Jacobian values in `jac` (a kept factorization serves while it
+    /// preconditions well).
+    #[allow(clippy::too_many_arguments)]
+    fn compliant_accelerations(
+        &mut self,
+        jac: &Jacobian,
+        inv_mass: &[f64],
+        d: &[f64],
+        q: &[f64],
+        c: &[f64],
+        a: &mut [f64],
+        lambda: &mut [f64],
+    ) -> Result<SolveReport, SolverError>;
     /// dx = M^-1 A^T mu with mu = S^+ r (in the mode of the factorization).
     fn correction(
         &mut self,

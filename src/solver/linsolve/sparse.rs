@@ -46,6 +46,14 @@
 //!   the projected Richardson iteration (no data-dependent step length) and
 //!   lambda = S^+ (A g) by CG again: the least-squares answer of the dense SVD.
 //!
+//! - Compliant (`compliant_accelerations`, elastic members): S + D with a
+//!   positive D per row is positive definite whatever the redundancy, so it
+//!   is factored over every row as it is (no probe, no rejection) and CG
+//!   runs on S + D itself, preconditioned by that factorization; the
+//!   multipliers are unique. The factorization is kept while no Jacobian
+//!   entry has moved by more than `COMPLIANT_REUSE_TOL` and D and the masses
+//!   are the same.
+//!
 //! Convergence is measured on g = M^-1 A^T lambda (the motion).
 //!
 //! Accuracy: g (accelerations, corrections, A^T lambda) to roundoff of the
@@ -211,7 +219,24 @@ pub struct SparseSchur {
     next_reprobe: u64,
     /// Solves whose right-hand side had a component along null(S) (diagnostics).
     pub inconsistent_solves: u64,
+    /// The factorization of S + D (compliant solves) and what it was made at.
+    compliant: CompliantSlot,
 }
+
+/// LDL^T of S + diag(d) over every row, kept for the compliant solves.
+#[derive(Default)]
+struct CompliantSlot {
+    l_vals: Vec<f64>,
+    d: Vec<f64>,
+    inv_mass: Vec<f64>,
+    jac_values: Vec<f64>,
+    valid: bool,
+    worst_iterations: usize,
+}
+
+/// A compliant factorization is reused while no Jacobian entry has moved by
+/// more than this (relative to the largest) and its solves stay short.
+const COMPLIANT_REUSE_TOL: f64 = 1e-3;
 
 impl SparseSchur {
     fn same_structure(&self, jac: &Jacobian) -> bool {
@@ -295,7 +320,121 @@ impl SparseSchur {
         }
         (self.reprobe, self.next_reprobe) = (false, 0);
         self.rank = None;
+        self.compliant = CompliantSlot {
+            l_vals: vec![0.0; self.full.len_val],
+            ..CompliantSlot::default()
+        };
         Ok(())
+    }
+
+    /// The pattern for this Jacobian's block structure, built if it changed.
+    fn ensure_structure(&mut self, jac: &Jacobian) -> Result<(), SolverError> {
+        if !self.same_structure(jac) {
+            self.setup(jac)?;
+        } else if jac.structure_id != self.sig_id {
+            // The same structure under a new name (a reset): keep the analysis,
+            // but let the next inconsistency probe again at once.
+            self.sig_id = jac.structure_id;
+            self.next_reprobe = 0;
+        }
+        // (the sum is NaN or infinite exactly when an entry is)
+        if !all_finite(&jac.values) {
+            return Err(SolverError::NonFiniteJacobian);
+        }
+        Ok(())
+    }
+
+    /// LDL^T of S + diag(d) at the current Jacobian values (compliant solves).
+    fn refactor_compliant(
+        &mut self,
+        jac: &Jacobian,
+        inv_mass: &[f64],
+        d: &[f64],
+    ) -> Result<(), SolverError> {
+        let pat = &mut self.full;
+        pat.fill(jac, inv_mass)?;
+        pat.add_diagonal(d);
+        let dmin = d
+            .iter()
+            .fold(f64::INFINITY, |m, &v| m.min(v))
+            .max(f64::MIN_POSITIVE);
+        let cs = &mut self.compliant;
+        // (pivots are at least min d in exact arithmetic; guard against roundoff)
+        pat.factor(&mut cs.l_vals, (dmin, 0.5 * dmin))?;
+        cs.d.clear();
+        cs.d.extend_from_slice(d);
+        cs.inv_mass.clear();
+        cs.inv_mass.extend_from_slice(inv_mass);
+        cs.jac_values.clear();
+        cs.jac_values.extend_from_slice(&jac.values);
+        cs.valid = true;
+        cs.worst_iterations = 0;
+        self.numeric_factorizations += 1;
+        Ok(())
+    }
+
+    /// Preconditioned conjugate gradients on (S + D) lambda = rhs (rhs in
+    /// `self.res`), preconditioned by the compliant factorization: lambda in
+    /// `self.lam`, g = M^-1 A^T lambda in `self.g`. Stops when the update of
+    /// lambda falls below `REFINE_TOL` of lambda, or stagnates at the
+    /// roundoff floor; returns whether it stopped short of `MAX_REFINE`.
+    fn compliant_pcg(&mut self, jac: &Jacobian, inv_mass: &[f64], d: &[f64]) -> bool {
+        self.lam.fill(0.0);
+        self.g.fill(0.0);
+        self.last_iterations = 0;
+        if self.res.iter().all(|v| *v == 0.0) {
+            return true;
+        }
+        self.dl.copy_from_slice(&self.res);
+        self.full.solve(&self.compliant.l_vals, &mut self.dl);
+        self.p.copy_from_slice(&self.dl);
+        let mut rz = dot(&self.res, &self.dl);
+        let mut dprev = f64::INFINITY;
+        for it in 1..=MAX_REFINE {
+            self.last_iterations = it;
+            // q = (S + D) p
+            jac.mul_t(&self.p, &mut self.dg);
+            for (h, im) in self.dg.iter_mut().zip(inv_mass) {
+                *h *= im;
+            }
+            jac.mul(&self.dg, &mut self.q);
+            for ((q, p), di) in self.q.iter_mut().zip(&self.p).zip(d) {
+                *q += di * p;
+            }
+            let pq = dot(&self.p, &self.q);
+            if !(pq > 0.0 && rz > 0.0) {
+                return true; // (converged to roundoff)
+            }
+            let alpha = rz / pq;
+            let (mut dmax, mut lmax) = (0.0f64, 0.0f64);
+            for i in 0..self.lam.len() {
+                let step = alpha * self.p[i];
+                self.lam[i] += step;
+                self.res[i] -= alpha * self.q[i];
+                dmax = dmax.max(step.abs());
+                lmax = lmax.max(self.lam[i].abs());
+            }
+            for (g, h) in self.g.iter_mut().zip(&self.dg) {
+                *g += alpha * h;
+            }
+            let rho = dmax / dprev;
+            dprev = dmax;
+            if dmax <= REFINE_TOL * lmax
+                || (it >= 2 && rho < 0.5 && dmax * rho / (1.0 - rho) <= REFINE_TOL * lmax)
+                || (it >= 2 && rho >= 0.5 && dmax <= ROUNDOFF_FLOOR * lmax)
+            {
+                return true;
+            }
+            self.dl.copy_from_slice(&self.res);
+            self.full.solve(&self.compliant.l_vals, &mut self.dl);
+            let rz_new = dot(&self.res, &self.dl);
+            let beta = rz_new / rz;
+            rz = rz_new;
+            for (p, z) in self.p.iter_mut().zip(&self.dl) {
+                *p = z + beta * *p;
+            }
+        }
+        false
     }
 
     /// Finds the redundant rows at the current configuration (a rejecting
@@ -865,6 +1004,13 @@ impl Pattern {
             .fold(0.0f64, |a, &p| a.max(self.s_vals[p]))
     }
 
+    /// S_tt += d[rows[t]] (a value per constraint row).
+    fn add_diagonal(&mut self, d: &[f64]) {
+        for (&p, &r) in self.diag_pos.iter().zip(&self.rows) {
+            self.s_vals[p] += d[r];
+        }
+    }
+
     fn add_to_diagonal(&mut self, delta: f64) {
         for &p in &self.diag_pos {
             self.s_vals[p] += delta;
@@ -944,18 +1090,7 @@ impl ConstraintSolver for SparseSchur {
         inv_mass: &[f64],
         mode: SolveMode,
     ) -> Result<FactorReport, SolverError> {
-        if !self.same_structure(jac) {
-            self.setup(jac)?;
-        } else if jac.structure_id != self.sig_id {
-            // The same structure under a new name (a reset): keep the analysis,
-            // but let the next inconsistency probe again at once.
-            self.sig_id = jac.structure_id;
-            self.next_reprobe = 0;
-        }
-        // (the sum is NaN or infinite exactly when an entry is)
-        if !all_finite(&jac.values) {
-            return Err(SolverError::NonFiniteJacobian);
-        }
+        self.ensure_structure(jac)?;
         // Reuse a kept factorization of the wanted kind for this mass matrix
         // while it still preconditions well; otherwise refactor into its slot
         // (or the least recently made one of that kind).
@@ -1043,6 +1178,68 @@ impl ConstraintSolver for SparseSchur {
         }
         let k = lambda.len().min(self.lam.len());
         lambda[..k].copy_from_slice(&self.lam[..k]);
+        Ok(report)
+    }
+
+    fn compliant_accelerations(
+        &mut self,
+        jac: &Jacobian,
+        inv_mass: &[f64],
+        d: &[f64],
+        q: &[f64],
+        c: &[f64],
+        a: &mut [f64],
+        lambda: &mut [f64],
+    ) -> Result<SolveReport, SolverError> {
+        let n = q.len();
+        for i in 0..n {
+            a[i] = q[i] * inv_mass[i];
+        }
+        if jac.nrows == 0 {
+            return Ok(SolveReport::DIRECT);
+        }
+        self.ensure_structure(jac)?;
+        let cs = &self.compliant;
+        let reuse = cs.valid
+            && cs.worst_iterations <= REUSE_MAX_ITERATIONS
+            && cs.d == d
+            && cs.inv_mass == inv_mass
+            && {
+                let (dmax, amax) = max_abs_diff(&jac.values, &cs.jac_values);
+                dmax <= COMPLIANT_REUSE_TOL * amax
+            };
+        if reuse {
+            self.reused_factorizations += 1;
+        } else {
+            self.refactor_compliant(jac, inv_mass, d)?;
+        }
+        // rhs = -c - A M^-1 Q
+        jac.mul(a, &mut self.res);
+        for (i, r) in self.res.iter_mut().enumerate() {
+            *r = -c[i] - *r;
+        }
+        self.rhs_keep.copy_from_slice(&self.res);
+        let mut report = SolveReport::default();
+        let mut converged = self.compliant_pcg(jac, inv_mass, d);
+        let mut iterations = self.last_iterations;
+        if reuse && (!converged || self.last_iterations > REUSE_MAX_ITERATIONS) {
+            self.refactor_compliant(jac, inv_mass, d)?;
+            report.refactored = true;
+            self.res.copy_from_slice(&self.rhs_keep);
+            converged = self.compliant_pcg(jac, inv_mass, d);
+            iterations += self.last_iterations;
+        }
+        let cs = &mut self.compliant;
+        cs.worst_iterations = cs.worst_iterations.max(self.last_iterations);
+        self.solves += 1;
+        self.cg_iterations += iterations as u64;
+        for i in 0..n {
+            a[i] += self.g[i];
+        }
+        let k = lambda.len().min(self.lam.len());
+        lambda[..k].copy_from_slice(&self.lam[..k]);
+        report.iterations = iterations;
+        report.converged = converged;
         Ok(report)
     }
 

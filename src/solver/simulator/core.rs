@@ -16,6 +16,10 @@ use crate::solver::state::State;
 use crate::solver::stats::SolverStats;
 use crate::solver::SolverError;
 
+/// D of a member row whose force a solve at acceleration level takes from
+/// the state, relative to its step value c / beta (large: S is ~1/c smaller).
+pub(super) const MEMBER_PIN: f64 = 1e12;
+
 /// Buffers and the factorization, reused across steps.
 pub(super) struct Core {
     pub jac: Jacobian,
@@ -74,6 +78,28 @@ pub(super) struct Core {
     pub motor: super::motor::MotorWork,
     /// What the stepping loop did (the aux solver's work is not counted).
     pub stats: SolverStats,
+    /// Elastic members (`SolverSettings::elastic_members`): per row its
+    /// compliance c (m/N; rows that are not members 1e-6 of the stiffest
+    /// member's), whether it is a member, D = c / beta of the solve in
+    /// progress, and Phi and A V (scratch of the right-hand sides).
+    pub row_compliance: Vec<f64>,
+    pub row_member: Vec<bool>,
+    pub row_d: Vec<f64>,
+    pub row_phi: Vec<f64>,
+    pub row_rate: Vec<f64>,
+    /// Set while solves are compliant: the step length they are scaled to,
+    /// and whether they hold Phi + tau Phidot + c lambda = 0 at the Newmark
+    /// positions (index 3) rather than at acceleration level.
+    pub compliant: Option<(f64, bool)>,
+    /// The members' relaxation time tau (s, `member_relaxation_s`).
+    pub relaxation_s: f64,
+    /// Elastic members at the trial's end: strain energy
+    /// 1/2 sum Phi_i^2 / c_i (J); their forces on the joints A^T lambda at
+    /// the trial's end and at the state's (N), whose work over a step
+    /// (trapezoid, as the Newmark rule takes every force) the ledger books.
+    pub strain_trial_j: f64,
+    pub member_force_trial: Vec<f64>,
+    pub member_force_state: Vec<f64>,
 }
 
 impl Core {
@@ -118,7 +144,68 @@ impl Core {
             element_springs: super::springs::ElementSprings::new(model),
             motor: super::motor::MotorWork::new(model, m),
             stats: SolverStats::default(),
+            row_compliance: Vec::new(),
+            row_member: Vec::new(),
+            row_d: Vec::new(),
+            row_phi: Vec::new(),
+            row_rate: Vec::new(),
+            compliant: None,
+            relaxation_s: model.solver.member_relaxation_s,
+            strain_trial_j: 0.0,
+            member_force_trial: vec![0.0; n],
+            member_force_state: vec![0.0; n],
         }
+        .with_compliance(model)
+    }
+
+    /// Per-row compliances of the current pattern (elastic members).
+    fn with_compliance(mut self, model: &Model) -> Core {
+        self.set_compliance(model);
+        self
+    }
+
+    fn set_compliance(&mut self, model: &Model) {
+        LeastWork::row_compliance(model, &self.jac, &mut self.row_compliance);
+        let rigid = 1e-6 * model.stiffest_compliance_m_per_n;
+        self.row_member.clear();
+        self.row_member
+            .extend(self.row_compliance.iter().map(|c| c.is_finite()));
+        for c in &mut self.row_compliance {
+            if !c.is_finite() {
+                *c = rigid;
+            }
+        }
+        for b in [&mut self.row_d, &mut self.row_phi, &mut self.row_rate] {
+            b.resize(self.jac.nrows, 0.0);
+        }
+    }
+
+    /// beta = dPhi_{n+1}/dA_{n+1} + tau dPhidot_{n+1}/dA_{n+1} per unit
+    /// of A dA_{n+1}: h^2/4 + tau h/2 (Newmark).
+    pub fn relaxation_beta(&self, h: f64) -> f64 {
+        h * (0.25 * h + 0.5 * self.relaxation_s)
+    }
+
+    /// Elastic members at (x, v) with the Jacobian filled there: strain
+    /// energy 1/2 sum Phi_i^2 / c_i (J) and the largest residual of
+    /// Phi + tau A V + c lambda (m).
+    pub fn elastic_readings(&mut self, model: &Model) -> (f64, f64) {
+        self.jac.residual(model, &self.x, &mut self.row_phi);
+        self.jac.mul(&self.v, &mut self.row_rate);
+        let tau = self.relaxation_s;
+        let (mut strain, mut worst) = (0.0, 0.0f64);
+        for i in 0..self.row_phi.len() {
+            let (phi, cmp) = (self.row_phi[i], self.row_compliance[i]);
+            strain += 0.5 * phi * phi / cmp;
+            worst = worst.max((phi + tau * self.row_rate[i] + cmp * self.lambda[i]).abs());
+        }
+        (strain, worst)
+    }
+
+    /// The state's member forces on the joints, A^T lambda with the
+    /// Jacobian filled at the state (after a solve from scratch).
+    pub fn store_state_member_forces(&mut self) {
+        self.jac.mul_t(&self.lambda, &mut self.member_force_state);
     }
 
     /// The Jacobian pattern (and row-sized buffers) of a new locked set.
@@ -130,6 +217,7 @@ impl Core {
         }
         self.newton.set_rows(m);
         self.motor.set_rows(m);
+        self.set_compliance(model);
     }
 
     /// The inverse masses the solves use: M^-1, or (M + h/2 C)^-1 inside an
@@ -176,14 +264,42 @@ impl Core {
     /// forces `q` and the convective term `c`, with the current factorization.
     pub fn solve_accelerations(&mut self, model: &Model) -> Result<(), SolverError> {
         let w = Self::weights(self.implicit_h, &self.inv_mass_eff, model);
-        let report = self.solver.accelerations(
-            &self.jac,
-            w,
-            &self.q,
-            &self.c,
-            &mut self.a,
-            &mut self.lambda,
-        )?;
+        let report = if let Some((h, _)) = self.compliant {
+            // D = c / beta: Phi + tau Phidot + c lambda = 0 at the step's
+            // end, beta its derivative in A_{n+1} per unit of A A_{n+1}
+            let k = 1.0 / self.relaxation_beta(h);
+            for (d, c) in self.row_d.iter_mut().zip(&self.row_compliance) {
+                *d = k * c;
+            }
+            if let Some((_, false)) = self.compliant {
+                // At acceleration level (a state from scratch) a member's
+                // force is its state's, lambda = -(Phi + tau A V) / c: a
+                // row with D >> S and rhs D lambda (set with `c`).
+                for i in 0..self.row_d.len() {
+                    if self.row_member[i] {
+                        self.row_d[i] = MEMBER_PIN * k * self.row_compliance[i];
+                    }
+                }
+            }
+            self.solver.compliant_accelerations(
+                &self.jac,
+                w,
+                &self.row_d,
+                &self.q,
+                &self.c,
+                &mut self.a,
+                &mut self.lambda,
+            )?
+        } else {
+            self.solver.accelerations(
+                &self.jac,
+                w,
+                &self.q,
+                &self.c,
+                &mut self.a,
+                &mut self.lambda,
+            )?
+        };
         self.book_solve(report);
         Ok(())
     }

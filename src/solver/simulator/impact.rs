@@ -41,10 +41,49 @@ impl Core {
         cmd: &[f64],
         mode: SolveMode,
     ) -> Result<(), SolverError> {
+        if st.elastic_members {
+            // (elastic members keep their stretch: the latch is at its lock)
+            self.factor(model, mode)?;
+            self.elastic_velocity_jump(model)?;
+            return self.consistent_accelerations(model, cmd, st);
+        }
         self.project_positions(model, st, mode)?;
         self.factor(model, mode)?;
         self.project_velocities(model, st, mode)?;
         self.consistent_accelerations(model, cmd, st)
+    }
+}
+
+impl Core {
+    /// The velocity jump of elastic members: V <- V + dV, dV = M^-1 A^T lambda
+    /// with A (V + dV) + D lambda = 0, D = c / beta at the model's step (the
+    /// step's own compliance): the inelastic impulse of the rigid truss to
+    /// within D / S ~ 1e-5, and well posed at the flat state where the rigid
+    /// one is not. Impulses mu = -lambda (N s) in `mu`, A V before in `r`.
+    fn elastic_velocity_jump(&mut self, model: &Model) -> Result<(), SolverError> {
+        self.jac.mul(&self.v, &mut self.r);
+        self.q.fill(0.0);
+        let k = 1.0 / self.relaxation_beta(model.dt_s);
+        for (d, c) in self.row_d.iter_mut().zip(&self.row_compliance) {
+            *d = k * c;
+        }
+        let report = self.solver.compliant_accelerations(
+            &self.jac,
+            &model.inv_mass,
+            &self.row_d,
+            &self.q,
+            &self.r,
+            &mut self.dx,
+            &mut self.mu,
+        )?;
+        self.book_solve(report);
+        for (v, d) in self.v.iter_mut().zip(&self.dx) {
+            *v += d;
+        }
+        for m in &mut self.mu {
+            *m = -*m;
+        }
+        Ok(())
     }
 }
 
@@ -519,8 +558,10 @@ impl Simulator {
         // `rank_check_max_coords`). Once every element has latched the truss
         // is deployed whatever the count, and the SVD (~4 % of a ring's whole
         // deployment) is skipped.
+        // (elastic members move on where the rigid truss has no mechanism)
         let deployed = self.all_locked()
             || (self.state.mechanisms == 0
+                && !self.settings.elastic_members
                 && self.state.transients.is_empty()
                 && self.model.n_coords() <= self.settings.rank_check_max_coords
                 && (self.core.solver.rank().is_some()

@@ -9,7 +9,7 @@
 //! damping, gravity) and the accelerations consistent with a state where a
 //! step starts from scratch.
 
-use super::core::Core;
+use super::core::{Core, MEMBER_PIN};
 use crate::solver::cable;
 use crate::solver::linsolve::SolveMode;
 use crate::solver::model::Model;
@@ -88,10 +88,40 @@ impl Core {
         refactor: Option<SolveMode>,
     ) -> Result<(), SolverError> {
         if let Some(mode) = refactor {
-            self.factor(model, mode)?;
+            if self.compliant.is_some() {
+                // (compliant solves factor S + D themselves)
+                self.jac.fill(model, &self.x);
+            } else {
+                self.factor(model, mode)?;
+            }
         }
         self.applied_forces(model, cmd);
-        self.jac.adot_xdot(model, &self.x, &self.v, &mut self.c);
+        if let Some((h, true)) = self.compliant {
+            // Index 3: Phi(X) + tau A V + c lambda = 0 at X, V of A
+            // linearized at the iterate A_g (X, V move by h^2/4 and h/2
+            // per unit A): beta A (A - A_g) + Phi + tau A V + c lambda = 0,
+            // i.e. A A + D lambda = -((Phi + tau A V) / beta - A A_g).
+            self.jac.residual(model, &self.x, &mut self.row_phi);
+            self.jac.mul(&self.v, &mut self.row_rate);
+            self.jac.mul(&self.a_guess, &mut self.c);
+            let (tau, beta) = (self.relaxation_s, self.relaxation_beta(h));
+            for i in 0..self.c.len() {
+                self.c[i] = (self.row_phi[i] + tau * self.row_rate[i]) / beta - self.c[i];
+            }
+        } else {
+            self.jac.adot_xdot(model, &self.x, &self.v, &mut self.c);
+            if let Some((h, false)) = self.compliant {
+                // members: A A + D lambda = -c with D lambda = -D (Phi + tau A V) / c
+                self.jac.residual(model, &self.x, &mut self.row_phi);
+                self.jac.mul(&self.v, &mut self.row_rate);
+                let k = MEMBER_PIN / self.relaxation_beta(h);
+                for i in 0..self.c.len() {
+                    if self.row_member[i] {
+                        self.c[i] = k * (self.row_phi[i] + self.relaxation_s * self.row_rate[i]);
+                    }
+                }
+            }
+        }
         self.solve_accelerations(model)?;
         if self.motor.any_tracking() {
             self.motor_tensions(model)?;
@@ -109,6 +139,23 @@ impl Core {
     /// contraction like the Newmark iteration's); stopping at the iteration
     /// limit is a counted fallback.
     pub fn consistent_accelerations(
+        &mut self,
+        model: &Model,
+        cmd: &[f64],
+        st: &SolverSettings,
+    ) -> Result<(), SolverError> {
+        if st.elastic_members {
+            self.compliant = Some((model.dt_s, false));
+        }
+        let result = self.consistent_fixed_point(model, cmd, st);
+        self.compliant = None;
+        if st.elastic_members {
+            self.store_state_member_forces();
+        }
+        result
+    }
+
+    fn consistent_fixed_point(
         &mut self,
         model: &Model,
         cmd: &[f64],
@@ -176,12 +223,20 @@ impl Core {
         for (dst, src) in self.friction_sliding.iter_mut().zip(&s.cables) {
             dst.copy_from_slice(&src.sliding_m_s);
         }
+        if st.elastic_members {
+            self.compliant = Some((h, true));
+        }
         let iterated = self.newmark_iterate(model, s, h, st, base);
+        self.compliant = None;
         self.implicit_h = None;
         let lagged = self.lagged_friction;
         self.lagged_friction = false;
         iterated?;
         self.newmark_update(s, h);
+        if st.elastic_members {
+            self.elastic_finish(model);
+            return Ok(());
+        }
         self.project_positions(model, st, base)?;
         let motors = self.motor.any_tracking();
         if motors {
@@ -203,6 +258,19 @@ impl Core {
         let result = self.accelerations(model, cmd, None);
         self.lagged_friction = false;
         result
+    }
+
+    /// The end of an elastic-member step: the iteration left X_{n+1},
+    /// V_{n+1} with Phi + tau A V + c lambda = 0 and A_{n+1}, lambda
+    /// consistent with them; nothing is projected. The violation reported
+    /// is what is left of that equation; the members' strain energy and
+    /// dampers' rate are read for the ledger.
+    fn elastic_finish(&mut self, model: &Model) {
+        self.jac.fill(model, &self.x);
+        let (strain, worst) = self.elastic_readings(model);
+        self.strain_trial_j = strain;
+        self.violation_m = worst;
+        self.jac.mul_t(&self.lambda, &mut self.member_force_trial);
     }
 
     /// The trial (x, v) from the step start `s` and A_{n+1} = `a_guess`:

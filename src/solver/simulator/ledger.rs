@@ -38,6 +38,13 @@ impl Simulator {
         e.damping_loss_j += damping_loss_j(m, (&s.x, &s.v), (&c.x, &c.v));
         e.element_spring_energy_j += elastic_j;
         e.damping_loss_j += damper_j;
+        if self.settings.elastic_members {
+            // (the members' work on the joints by the trapezoid, less the
+            // strain energy it went into: their dampers' loss)
+            let work_j = member_work_j(&s.x, &c.x, &c.member_force_state, &c.member_force_trial);
+            e.member_damping_loss_j += -work_j - (c.strain_trial_j - e.member_strain_energy_j);
+            e.member_strain_energy_j = c.strain_trial_j;
+        }
         // Compliant latches: the damper's work c ldot dl by the trapezoid, as
         // the joint damping above; the spring's energy 1/2 k g^2 is exact.
         // Per latch, its force impulse (trapezoid of T) and dissipation.
@@ -67,6 +74,10 @@ impl Simulator {
         let t0 = s.t_s;
         s.t_s += h;
         c.commit_trial(s);
+        if self.settings.elastic_members {
+            let core = &mut self.core;
+            std::mem::swap(&mut core.member_force_state, &mut core.member_force_trial);
+        }
         let settle_rel = self.settings.latch_settle_rel;
         for tr in &mut s.transients {
             let ev = &mut s.locks[tr.event];
@@ -95,13 +106,21 @@ impl Simulator {
         let (kinetic_before_j, kinetic_trial_j) =
             (kinetic_energy_j(m, &s.v), kinetic_energy_j(m, &c.v));
         let d_kinetic_j = kinetic_trial_j - kinetic_before_j;
+        // (elastic members: their strain energy's change, and what the
+        // velocity projection took)
+        let member_j = if self.settings.elastic_members {
+            member_work_j(&s.x, &c.x, &c.member_force_state, &c.member_force_trial)
+        } else {
+            0.0
+        };
         TrialEnergy {
-            residual_j: d_kinetic_j - (work_j - damping_j - elastic_j - damper_j),
+            residual_j: d_kinetic_j - (work_j - damping_j - elastic_j - damper_j + member_j),
             flow_j: d_kinetic_j.abs()
                 + work_j.abs()
                 + damping_j.abs()
                 + elastic_j.abs()
                 + damper_j.abs()
+                + member_j.abs()
                 + scratch.friction_loss_j.abs(),
             kinetic_before_j,
             kinetic_trial_j,
@@ -117,6 +136,14 @@ pub(super) struct TrialEnergy {
     pub flow_j: f64,
     pub kinetic_before_j: f64,
     pub kinetic_trial_j: f64,
+}
+
+/// Elastic members' work on the joints over a move (J), by the trapezoid
+/// in their joint forces f = A^T lambda: 1/2 (f_old + f_new) . dx.
+fn member_work_j(x0: &[f64], x1: &[f64], f0: &[f64], f1: &[f64]) -> f64 {
+    (0..x0.len())
+        .map(|i| 0.5 * (f0[i] + f1[i]) * (x1[i] - x0[i]))
+        .sum()
 }
 
 /// The joint damping's work over a move (J), by the trapezoid:

@@ -13,7 +13,9 @@
 //! ```
 //!
 //! Compliant elements (`springs`) add their forces in the integrator and
-//! their energy in the ledger.
+//! their energy in the ledger. With elastic members
+//! (`SolverSettings::elastic_members`) the Newmark iteration holds
+//! Phi + tau Phidot + c lambda = 0 itself and nothing is projected.
 //!
 //! `core` holds the buffers, the Jacobian, the backend and the counters;
 //! every numeric policy comes from the model's [`SolverSettings`], passed to

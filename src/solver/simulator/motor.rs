@@ -410,6 +410,12 @@ impl Simulator {
                     c.name
                 )));
             }
+            if self.settings.elastic_members {
+                return Err(SolverError::Invalid(format!(
+                    "cable `{}`: speed control takes rigid members ([solver] elastic_members = false)",
+                    c.name
+                )));
+            }
         }
         let m = &mut self.state.motors[cable];
         if m.speed_cmd_m_s == speed_m_s {

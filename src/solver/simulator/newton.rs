@@ -289,14 +289,26 @@ impl Core {
         if nw.dq.iter().all(|v| *v == 0.0) {
             return Ok(());
         }
-        let report = self.solver.accelerations(
-            &self.jac,
-            &self.inv_mass_eff,
-            &nw.dq,
-            &nw.zero_c,
-            &mut nw.da,
-            &mut nw.lambda,
-        )?;
+        let report = if self.compliant.is_some() {
+            self.solver.compliant_accelerations(
+                &self.jac,
+                &self.inv_mass_eff,
+                &self.row_d,
+                &nw.dq,
+                &nw.zero_c,
+                &mut nw.da,
+                &mut nw.lambda,
+            )?
+        } else {
+            self.solver.accelerations(
+                &self.jac,
+                &self.inv_mass_eff,
+                &nw.dq,
+                &nw.zero_c,
+                &mut nw.da,
+                &mut nw.lambda,
+            )?
+        };
         let mut gain2 = 0.0;
         for i in 0..n {
             w[i] -= nw.da[i];
