@@ -62,6 +62,13 @@ struct BaseSpec {
     generator: Option<Spanned<String>>,
     #[serde(default)]
     args: BTreeMap<String, Spanned<Value>>,
+    /// Keys set in every sample's `[settings]`, `[solver]`, `[checks]`.
+    #[serde(default)]
+    settings: Table,
+    #[serde(default)]
+    solver: Table,
+    #[serde(default)]
+    checks: Table,
 }
 
 #[derive(Deserialize, Debug)]
@@ -219,6 +226,9 @@ pub struct Sweep {
     pub replicas: u64,
     pub max_wall_s: Option<f64>,
     pub base: Base,
+    /// Keys every sample's model takes as they are (`[base.solver]` and the
+    /// like): (table, its keys), over the base model's.
+    pub fixed: Vec<(String, Table)>,
     pub params: Vec<Param>,
     /// The grid axes: (parameter index, values), first varying slowest.
     pub axes: Vec<(usize, Vec<f64>)>,
@@ -595,6 +605,15 @@ impl Sweep {
             replicas,
             max_wall_s,
             base,
+            fixed: [
+                ("settings", &b.settings),
+                ("solver", &b.solver),
+                ("checks", &b.checks),
+            ]
+            .into_iter()
+            .filter(|(_, t)| !t.is_empty())
+            .map(|(n, t)| (n.to_string(), t.clone()))
+            .collect(),
             params,
             axes,
             text: text.to_string(),
@@ -625,8 +644,34 @@ impl Sweep {
         self.len() == 0
     }
 
-    /// The base model with its generator arguments replaced by `gen`.
+    /// The base model with its generator arguments replaced by `gen` and
+    /// the fixed keys (`[base.solver]` and the like) set.
     fn base_text(
+        &self,
+        gen: &[(String, f64)],
+        generator: &Generator,
+    ) -> Result<String, (Option<String>, String)> {
+        let text = self.base_text_unfixed(gen, generator)?;
+        if self.fixed.is_empty() {
+            return Ok(text);
+        }
+        let mut table: Table = toml::from_str(&text)
+            .map_err(|e| (None, format!("the base model is not valid TOML: {e}")))?;
+        for (name, keys) in &self.fixed {
+            let section = table
+                .entry(name.clone())
+                .or_insert_with(|| Value::Table(Table::new()));
+            let Value::Table(section) = section else {
+                return Err((None, format!("`{name}` is not a table in the base model")));
+            };
+            for (k, v) in keys {
+                section.insert(k.clone(), v.clone());
+            }
+        }
+        toml::to_string(&table).map_err(|e| (None, format!("cannot write the model: {e}")))
+    }
+
+    fn base_text_unfixed(
         &self,
         gen: &[(String, f64)],
         generator: &Generator,
@@ -876,6 +921,39 @@ mod tests {
             n: 5,
         };
         assert_eq!(d.axis().unwrap(), vec![1.0, 1.25, 1.5, 1.75, 2.0]);
+    }
+
+    /// `[base.solver]` (and `[base.settings]`, `[base.checks]`) keys reach
+    /// every sample's model as they are, booleans too; a key the model does
+    /// not take is refused before any sample runs, by name.
+    #[test]
+    fn fixed_base_keys_reach_every_sample() {
+        let model = std::fs::read_to_string(
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("models/pantograph_mast.toml"),
+        )
+        .unwrap();
+        let generator = move |_: &str, _: &[(String, Option<String>)]| Ok(model.clone());
+        let generator: &Generator = &generator;
+        let sweep_text = |solver: &str| {
+            format!(
+                "[sweep]\nname = \"s\"\nseed = 1\nsamples = 2\n\n[base]\ngenerator = \"mast\"\n\n\
+                 [base.solver]\n{solver}\n\n[[param]]\nkey = \"settings.damping_n_s_per_m\"\n\
+                 dist = \"uniform\"\nmin = 0.0\nmax = 1.0\n"
+            )
+        };
+        let text = sweep_text("elastic_members = true\nmember_relaxation_s = 0.2");
+        let sweep = Sweep::parse(&text, "s.toml", Path::new("."), generator).expect("parses");
+        for i in 0..2 {
+            let m = sweep.sample(i, generator).model.expect("a model");
+            let parsed = crate::model::parse(&m, "sample").expect("loads").model;
+            assert!(parsed.solver.elastic_members);
+            assert_eq!(parsed.solver.member_relaxation_s, 0.2);
+        }
+        let bad = sweep_text("no_such_solver_key = 1.0");
+        let e = Sweep::parse(&bad, "s.toml", Path::new("."), generator)
+            .err()
+            .expect("refused");
+        assert!(e.message.contains("no_such_solver_key"), "{}", e.message);
     }
 
     #[test]

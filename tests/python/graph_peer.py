@@ -447,13 +447,21 @@ def action_calls(dp, rel, steps):
             time.sleep(0.005)
         return got
 
+    # (the feedback is volatile: a feedback written before the node's writer
+    # has seen our reader is lost; wait, bounded, until we see its writer,
+    # and give it as long again to see ours)
+    t0 = time.monotonic()
+    while not len(fb.get_matched_publications()) and time.monotonic() - t0 < 10.0:
+        time.sleep(0.01)
+    time.sleep(min(time.monotonic() - t0, 1.0) + 0.2)
     # 1. a goal to its end
     out["stamp_before"] = latest_stamp()
     gid = list(range(1, 17))
     rp = send.call(goal_id=UUID(uuid=gid), steps=steps)
     out["accepted"] = rp.accepted if rp else None
     out["feedback"] = feedback_of(gid, 20.0)
-    rp = result.call(timeout_s=20.0, goal_id=UUID(uuid=gid))
+    # (get_result is idempotent: asked again each second without a reply)
+    rp = result.call(timeout_s=20.0, resend_s=1.0, goal_id=UUID(uuid=gid))
     out["status"], out["result"] = (rp.status, [rp.result.result, rp.result.error_message]) if rp else (None, None)
     time.sleep(0.3)
     out["stamp_after"] = latest_stamp()
@@ -466,7 +474,7 @@ def action_calls(dp, rel, steps):
     rp = cancel.call(goal_info=GoalInfo(goal_id=UUID(uuid=gid2), stamp=Time(sec=0, nanosec=0)))
     out["cancel_code"] = rp.return_code if rp else None
     out["canceling"] = len(rp.goals_canceling) if rp else None
-    rp = result.call(timeout_s=20.0, goal_id=UUID(uuid=gid2))
+    rp = result.call(timeout_s=20.0, resend_s=1.0, goal_id=UUID(uuid=gid2))
     out["status2"], out["result2"] = (rp.status, [rp.result.result, rp.result.error_message]) if rp else (None, None)
     return out
 
