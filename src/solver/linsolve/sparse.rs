@@ -344,6 +344,38 @@ impl SparseSchur {
         Ok(())
     }
 
+    /// a = M^-1 Q and the right-hand side -c - A a into `res`; false when
+    /// there are no rows (a is then the answer).
+    fn unconstrained_part(
+        &mut self,
+        jac: &Jacobian,
+        inv_mass: &[f64],
+        q: &[f64],
+        c: &[f64],
+        a: &mut [f64],
+    ) -> bool {
+        for ((a, q), w) in a.iter_mut().zip(q).zip(inv_mass) {
+            *a = q * w;
+        }
+        if jac.nrows == 0 {
+            return false;
+        }
+        jac.mul(a, &mut self.res);
+        for (i, r) in self.res.iter_mut().enumerate() {
+            *r = -c.get(i).copied().unwrap_or(0.0) - *r;
+        }
+        true
+    }
+
+    /// a += M^-1 A^T lambda (`g`) and the multipliers out, after a solve.
+    fn constrained_part(&self, a: &mut [f64], lambda: &mut [f64]) {
+        for (a, g) in a.iter_mut().zip(&self.g) {
+            *a += g;
+        }
+        let k = lambda.len().min(self.lam.len());
+        lambda[..k].copy_from_slice(&self.lam[..k]);
+    }
+
     /// LDL^T of S + diag(d) at the current Jacobian values (compliant solves).
     fn refactor_compliant(
         &mut self,
@@ -1160,24 +1192,12 @@ impl ConstraintSolver for SparseSchur {
         a: &mut [f64],
         lambda: &mut [f64],
     ) -> Result<SolveReport, SolverError> {
-        let n = q.len();
         // a0 = M^-1 Q; lambda = S^+ (-c - A a0); a = a0 + M^-1 A^T lambda.
-        for i in 0..n {
-            a[i] = q[i] * inv_mass[i];
-        }
-        if jac.nrows == 0 {
+        if !self.unconstrained_part(jac, inv_mass, q, c, a) {
             return Ok(SolveReport::DIRECT);
         }
-        jac.mul(a, &mut self.res);
-        for (i, r) in self.res.iter_mut().enumerate() {
-            *r = -c.get(i).copied().unwrap_or(0.0) - *r;
-        }
         let report = self.solve(jac, inv_mass, false)?;
-        for i in 0..n {
-            a[i] += self.g[i];
-        }
-        let k = lambda.len().min(self.lam.len());
-        lambda[..k].copy_from_slice(&self.lam[..k]);
+        self.constrained_part(a, lambda);
         Ok(report)
     }
 
@@ -1191,11 +1211,8 @@ impl ConstraintSolver for SparseSchur {
         a: &mut [f64],
         lambda: &mut [f64],
     ) -> Result<SolveReport, SolverError> {
-        let n = q.len();
-        for i in 0..n {
-            a[i] = q[i] * inv_mass[i];
-        }
-        if jac.nrows == 0 {
+        // a0 = M^-1 Q; lambda = (S + D)^-1 (-c - A a0); a = a0 + M^-1 A^T lambda.
+        if !self.unconstrained_part(jac, inv_mass, q, c, a) {
             return Ok(SolveReport::DIRECT);
         }
         self.ensure_structure(jac)?;
@@ -1213,11 +1230,6 @@ impl ConstraintSolver for SparseSchur {
         } else {
             self.refactor_compliant(jac, inv_mass, d)?;
         }
-        // rhs = -c - A M^-1 Q
-        jac.mul(a, &mut self.res);
-        for (i, r) in self.res.iter_mut().enumerate() {
-            *r = -c[i] - *r;
-        }
         self.rhs_keep.copy_from_slice(&self.res);
         let mut report = SolveReport::default();
         let mut converged = self.compliant_pcg(jac, inv_mass, d);
@@ -1233,11 +1245,7 @@ impl ConstraintSolver for SparseSchur {
         cs.worst_iterations = cs.worst_iterations.max(self.last_iterations);
         self.solves += 1;
         self.cg_iterations += iterations as u64;
-        for i in 0..n {
-            a[i] += self.g[i];
-        }
-        let k = lambda.len().min(self.lam.len());
-        lambda[..k].copy_from_slice(&self.lam[..k]);
+        self.constrained_part(a, lambda);
         report.iterations = iterations;
         report.converged = converged;
         Ok(report)
