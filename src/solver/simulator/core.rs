@@ -60,6 +60,8 @@ pub(super) struct Core {
     pub prev_h: Option<f64>,
     pub a_prev2: Vec<f64>,
     pub prev_h2: Option<f64>,
+    pub a_prev3: Vec<f64>,
+    pub prev_h3: Option<f64>,
     /// The least-work split of redundant multipliers (member forces on
     /// request, latch impulses), with a backend of its own; made at first use.
     pub least_work: Option<LeastWork>,
@@ -138,6 +140,8 @@ impl Core {
             prev_h: None,
             a_prev2: vec![0.0; n],
             prev_h2: None,
+            a_prev3: vec![0.0; n],
+            prev_h3: None,
             least_work: None,
             springs: Vec::new(),
             waiting: Vec::new(),

@@ -297,6 +297,7 @@ impl Simulator {
             let jump = core.a[i] - self.state.a[i];
             core.a_prev[i] += jump;
             core.a_prev2[i] += jump;
+            core.a_prev3[i] += jump;
         }
         let s = &mut self.state;
         s.a.copy_from_slice(&core.a);

@@ -122,8 +122,16 @@ impl Core {
         h: f64,
         st: &SolverSettings,
     ) -> Result<(), SolverError> {
-        self.newton.norm_acc = f64::INFINITY;
-        self.newton.gain = 0.0;
+        // (the line search starts afresh: the bracket, step fraction and
+        // trial count an earlier step's failed search left behind would
+        // refuse this first iterate and fail the Newton steps at once)
+        let nw = &mut self.newton;
+        nw.norm_acc = f64::INFINITY;
+        nw.gain = 0.0;
+        nw.alpha = 1.0;
+        nw.trials = 0;
+        nw.hi = None;
+        nw.kept_side = 0;
         self.newton_advance(model, h, st).map(|_| ())
     }
 
