@@ -5,7 +5,7 @@
 //! The loop knows nothing of output files, progress bars or signals: the
 //! caller hooks them in through a [`RunObserver`].
 
-use crate::solver::checks::{self, HeldShortWatch, RunChecks, StallWatch};
+use crate::solver::checks::{self, HeldShortWatch, RunChecks, StallWatch, StickWatch};
 use crate::solver::{Energy, LockEvent, Simulator, SolverError, SolverStats, StepLimits, StopWhy};
 use serde::{Deserialize, Serialize};
 use std::sync::atomic::{AtomicBool, Ordering};
@@ -216,6 +216,7 @@ pub fn run_loop(
     };
     let mut stall = StallWatch::new(sim.model(), checks);
     let mut held = HeldShortWatch::new(sim.model(), checks);
+    let mut stick = StickWatch::new(checks);
     let (reason, message) = loop {
         let (m, s) = (sim.model(), sim.state());
         if let Some(msg) = checks::jammed(m, s, checks) {
@@ -294,6 +295,12 @@ pub fn run_loop(
             );
         }
         if let Some(why) = held.update(m, s) {
+            break (
+                StopReason::Stalled,
+                format!("stalled at t = {:.6} s: {why}", s.t_s),
+            );
+        }
+        if let Some(why) = stick.update(m, s) {
             break (
                 StopReason::Stalled,
                 format!("stalled at t = {:.6} s: {why}", s.t_s),

@@ -22,6 +22,7 @@
 //! jam_error_rel = 1e-6       # rigid with sleeves unlatched, farther from the reference: `stalled`
 //! held_short_rel_gap = 1e-3  # a latch leaves a sleeve this fraction of the size short, fixed ...
 //! held_short_confirm_s = 5.0 # ... and it has not moved so long after: `stalled` (1e300: never)
+//! stick_confirm_s = 5.0      # every drive cable sticks on its pulleys so long: `stalled` (1e300: never)
 //! [solver]                   # all optional: tolerances and iteration limits,
 //! newmark_max_iterations = 60  # keys and defaults in solver::settings
 //!
@@ -113,6 +114,7 @@ struct ChecksSpec {
     jam_error_rel: Option<f64>,
     held_short_rel_gap: Option<f64>,
     held_short_confirm_s: Option<f64>,
+    stick_confirm_s: Option<f64>,
 }
 
 /// Exactly three numbers [x, y, z]: serde's fixed-size arrays would take the
@@ -684,6 +686,9 @@ fn run_checks(c: &ChecksSpec) -> Result<RunChecks, String> {
     }
     if let Some(v) = positive("held_short_confirm_s", c.held_short_confirm_s)? {
         r.held_short_confirm_s = v;
+    }
+    if let Some(v) = positive("stick_confirm_s", c.stick_confirm_s)? {
+        r.stick_confirm_s = v;
     }
     if let Some(v) = c.max_steps {
         if v == 0 {

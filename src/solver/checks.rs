@@ -46,6 +46,10 @@ pub struct RunChecks {
     /// How long (s, simulated) a held sleeve is watched before the run stops
     /// as `stalled`. Default 5 s.
     pub held_short_confirm_s: f64,
+    /// How long (s, simulated) every drive cable may stick on its pulleys
+    /// (`StickWatch`) without a latch before the run stops as `stalled`.
+    /// Default 5 s.
+    pub stick_confirm_s: f64,
 }
 
 impl Default for RunChecks {
@@ -60,6 +64,7 @@ impl Default for RunChecks {
             jam_error_rel: 1e-6,
             held_short_rel_gap: 1e-3,
             held_short_confirm_s: 5.0,
+            stick_confirm_s: 5.0,
         }
     }
 }
@@ -431,6 +436,82 @@ impl StallWatch {
     }
 }
 
+/// Watches for drive cables that stick: every pulley with friction of every
+/// cable slides slower than its slip speed, and no joint moves faster than
+/// the largest slip speed. Below its slip speed a pulley's friction is the
+/// regularized stick of Coulomb's law (sigma = s / s_slip, a damper of
+/// mu theta T / s_slip): it holds whatever difference of tension the capstan
+/// law allows across it, up to a factor e^(mu theta). A cable whose every
+/// pulley sticks, with the truss at most creeping (the regularization lets it
+/// slide at a fraction of s_slip where Coulomb friction would hold it still),
+/// delivers no work: the drive's pull and what resists it (gears, members,
+/// damping) are within the friction's holding band. Held so for
+/// `stick_confirm_s` without a latch, the run has stalled. The test is on
+/// velocities only (the accelerations of a stuck mode alternate from step to
+/// step under the trapezoidal rule and say nothing of the motion).
+#[derive(Clone, Debug)]
+pub struct StickWatch {
+    window_s: f64,
+    since_s: Option<f64>,
+    latches: usize,
+}
+
+impl StickWatch {
+    pub fn new(checks: &RunChecks) -> StickWatch {
+        StickWatch {
+            window_s: checks.stick_confirm_s,
+            since_s: None,
+            latches: 0,
+        }
+    }
+
+    /// Call after each step; returns the stall message once every cable has
+    /// stuck for the window.
+    pub fn update(&mut self, model: &Model, state: &State) -> Option<String> {
+        let with_friction = || {
+            model
+                .cables
+                .iter()
+                .zip(&state.cables)
+                .filter(|(c, e)| c.friction_mu > 0.0 && !e.sliding_m_s.is_empty())
+        };
+        let slip_max = with_friction()
+            .map(|(c, _)| c.slip_speed_m_s)
+            .fold(0.0f64, f64::max);
+        let sliding_max = with_friction()
+            .flat_map(|(_, e)| e.sliding_m_s.iter().map(|s| s.abs()))
+            .fold(0.0f64, f64::max);
+        let stuck =
+            with_friction().all(|(c, e)| e.sliding_m_s.iter().all(|s| s.abs() < c.slip_speed_m_s));
+        let vmax = state.v.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        if state.deployed
+            || slip_max == 0.0
+            || model.cables.len() != with_friction().count()
+            || !stuck
+            || !(vmax < slip_max)
+            || state.locks.len() != self.latches
+        {
+            self.since_s = None;
+            self.latches = state.locks.len();
+            return None;
+        }
+        let since = *self.since_s.get_or_insert(state.t_s);
+        if state.t_s - since + 1e-12 < self.window_s {
+            return None;
+        }
+        Some(format!(
+            "the drive sticks: since t = {since:.3} s every pulley has slid slower than its slip \
+             speed (now |s| <= {sliding_max:.1e} m/s, slip speed {slip_max:.1e} m/s) and no joint \
+             moved faster than {vmax:.1e} m/s: the pulleys' static friction holds the drive's \
+             pull where what resists it (gears, members, damping) takes the rest, so the truss \
+             only creeps as the friction law's regularization lets it ([checks] \
+             stick_confirm_s = {}); {}",
+            self.window_s,
+            unlatched_summary(model, state)
+        ))
+    }
+}
+
 /// The energy balance check after a step: `Some(message)` when the relative
 /// balance error exceeds `energy_balance_rel_tol` (or is not a number) while
 /// the energy that flowed exceeds `energy_floor_j`.
@@ -466,7 +547,7 @@ pub fn energy_unbalanced(model: &Model, state: &State, checks: &RunChecks) -> Op
 
 #[cfg(test)]
 mod tests {
-    use super::{jammed, RunChecks};
+    use super::{jammed, RunChecks, StickWatch};
     use crate::model::generate::{self, MastParams};
     use crate::solver::{Options, Simulator};
 
@@ -512,6 +593,74 @@ mod tests {
                 s.locked[e] = true;
             }
             assert_eq!(jammed(m, &s, &checks), None, "every sleeve latched");
+        }
+    }
+
+    /// A drive whose every pulley slides slower than its slip speed, with
+    /// the truss creeping slower than it, stalls after `stick_confirm_s`;
+    /// one pulley above its slip speed, a joint faster than it, or a latch
+    /// restarts the watch.
+    #[test]
+    fn a_drive_stuck_on_its_pulleys_stalls_after_the_window() {
+        let text = generate::mast(&MastParams::default()).unwrap().to_toml();
+        let mut model = crate::model::parse(&text, "mast.toml").unwrap().model;
+        for c in &mut model.cables {
+            c.friction_mu = 0.02;
+        }
+        let sim = Simulator::new(model, Options::default()).unwrap();
+        let m = sim.model();
+        let checks = RunChecks::default();
+        let slip = m.cables[0].slip_speed_m_s;
+        assert!(
+            !sim.state().cables[0].sliding_m_s.is_empty(),
+            "the mast's cable has pulleys"
+        );
+        let stuck_at = |t_s: f64| {
+            let mut s = sim.state().clone();
+            s.t_s = t_s;
+            for c in &mut s.cables {
+                c.sliding_m_s.fill(0.3 * slip);
+            }
+            s.v.fill(0.2 * slip);
+            s
+        };
+        let mut w = StickWatch::new(&checks);
+        assert_eq!(w.update(m, &stuck_at(1.0)), None);
+        assert_eq!(w.update(m, &stuck_at(5.5)), None, "4.5 s stuck");
+        let msg = w.update(m, &stuck_at(6.0)).expect("5 s stuck: stalled");
+        assert!(
+            msg.starts_with("the drive sticks: since t = 1.000 s"),
+            "{msg}"
+        );
+        // each of these restarts the window
+        let mut sliding = stuck_at(7.0);
+        sliding.cables[0].sliding_m_s[0] = 1.5 * slip;
+        let mut moving = stuck_at(7.0);
+        moving.v[4] = 2.0 * slip;
+        let mut latched = stuck_at(7.0);
+        latched.locks.push(crate::solver::state::LockEvent {
+            element: m.locks[0],
+            name: "latch".into(),
+            time_s: 7.0,
+            impulse_ns: 0.0,
+            energy_lost_j: 0.0,
+            closing_speed_m_s: 0.0,
+            peak_force_n: None,
+            time_of_peak_s: None,
+            rigid_at_s: None,
+        });
+        for s in [sliding, moving, latched] {
+            // (latches are only ever added: the later states keep them)
+            let later = |t_s: f64| {
+                let mut l = stuck_at(t_s);
+                l.locks.clone_from(&s.locks);
+                l
+            };
+            let mut w = StickWatch::new(&checks);
+            assert_eq!(w.update(m, &stuck_at(0.0)), None);
+            assert_eq!(w.update(m, &s), None);
+            assert_eq!(w.update(m, &later(11.0)), None, "restarted at t = 11 s");
+            assert!(w.update(m, &later(16.0)).is_some());
         }
     }
 }
