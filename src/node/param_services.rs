@@ -312,7 +312,7 @@ impl ParamServices {
         self.set_atomically
             .serve(node, now, |r| set_atomically(p, &r, &mut changed));
         if !changed.is_empty() {
-            let _ = self.events.publish(raw::ParameterEvent {
+            let sent = self.events.publish(raw::ParameterEvent {
                 stamp: ros2_client::builtin_interfaces::Time::now(),
                 node: self.node_fqn.clone(),
                 new_parameters: Vec::new(),
@@ -327,6 +327,12 @@ impl ParamServices {
                     .collect(),
                 deleted_parameters: Vec::new(),
             });
+            if let Err(e) = sent {
+                super::log::node_log!(
+                    Warn,
+                    "/parameter_events: the change was not announced: {e:?}"
+                );
+            }
         }
         changed
     }

@@ -326,6 +326,14 @@ def params_calls(dp, node, rel):
                                       rp.descriptors[0].floating_point_range[0].to_value],
                             "description": rp.descriptors[0].description} if rp and rp.descriptors else None)
     out["rtf_before"] = measure_rtf(js, 3.0)
+    # (/parameter_events is volatile: an event written before the node's
+    # writer has seen our reader is lost; wait, bounded, until we see its
+    # writer, and give it as long again to see ours)
+    t0 = time.monotonic()
+    while not len(events.get_matched_publications()) and time.monotonic() - t0 < 10.0:
+        time.sleep(0.01)
+    out["events_writer_seen_s"] = time.monotonic() - t0
+    time.sleep(min(time.monotonic() - t0, 1.0) + 0.2)
     target = float(os.environ.get("PEER_SET_RTF", "2.0"))
     rp = setc.call(parameters=[Parameter(name="rtf", value=double_value(target)),
                                Parameter(name="rtf", value=double_value(-1.0)),
@@ -336,8 +344,13 @@ def params_calls(dp, node, rel):
     out["rtf_after"] = measure_rtf(js, 3.0)
     rp = get.call(resend_s=1.0, names=["rtf"])
     out["rtf_get_after"] = rp.values[0].double_value if rp else None
+    taken = events.take(N=100)
+    t0 = time.monotonic()
+    while not taken and time.monotonic() - t0 < 3.0:
+        time.sleep(0.01)
+        taken = events.take(N=100)
     out["events"] = [[e.node, [[p.name, p.value.double_value] for p in e.changed_parameters]]
-                     for e in events.take(N=100)]
+                     for e in taken]
     return out
 
 
