@@ -453,11 +453,25 @@ impl Simulator {
                 }
                 TrialLedger::Sound { budget_used } => budget_used,
             };
-            // (a failure that left the state as it was: in a latch search;
-            // one after the state moved on, in a latch's own projection, stands)
+            // (a failure that left the state as it was: in a latch search,
+            // whose steps to the crossing did not converge; retried shorter
+            // like the trial itself, the crossing is then searched inside a
+            // shorter step, or falls after it; at the shortest sub-step
+            // `capture_or`; one after the state moved on, in a latch's own
+            // projection, stands)
             let before = self.state_mark();
             match self.finish_substep(h) {
                 Ok(()) => {}
+                Err(
+                    SolverError::NoConvergence { .. }
+                    | SolverError::Projection { .. }
+                    | SolverError::NonFinite(_)
+                    | SolverError::NonFiniteJacobian,
+                ) if self.state_mark() == before && h > dt * self.settings.min_substep_fraction => {
+                    self.core.stats.fallbacks.substep_halvings += 1;
+                    h_try = 0.5 * h;
+                    continue;
+                }
                 Err(e) if self.state_mark() == before => {
                     self.capture_or(e)?;
                     continue;
