@@ -413,12 +413,7 @@ impl Simulator {
                 // near a singular configuration the shorter step stays nearer
                 // the manifold; so is a trial whose iterates diverged to
                 // non-finite values from the finite accepted state)
-                Err(
-                    SolverError::NoConvergence { .. }
-                    | SolverError::Projection { .. }
-                    | SolverError::NonFinite(_)
-                    | SolverError::NonFiniteJacobian,
-                ) if h > dt * st.min_substep_fraction => {
+                Err(e) if shorter_may_converge(&e) && h > dt * st.min_substep_fraction => {
                     self.core.stats.fallbacks.substep_halvings += 1;
                     h_try = 0.5 * h;
                     continue;
@@ -462,12 +457,11 @@ impl Simulator {
             let before = self.state_mark();
             match self.finish_substep(h) {
                 Ok(()) => {}
-                Err(
-                    SolverError::NoConvergence { .. }
-                    | SolverError::Projection { .. }
-                    | SolverError::NonFinite(_)
-                    | SolverError::NonFiniteJacobian,
-                ) if self.state_mark() == before && h > dt * self.settings.min_substep_fraction => {
+                Err(e)
+                    if shorter_may_converge(&e)
+                        && self.state_mark() == before
+                        && h > dt * self.settings.min_substep_fraction =>
+                {
                     self.core.stats.fallbacks.substep_halvings += 1;
                     h_try = 0.5 * h;
                     continue;
@@ -706,4 +700,18 @@ fn blank_state(model: &Model) -> State {
         deploy_time_s: None,
         steps: 0,
     }
+}
+
+/// Failures a shorter sub-step may cure: a Newmark iteration that did not
+/// converge, a projection that failed, iterates or a Jacobian gone
+/// non-finite (near a singular configuration the shorter step stays nearer
+/// the manifold).
+fn shorter_may_converge(e: &SolverError) -> bool {
+    matches!(
+        e,
+        SolverError::NoConvergence { .. }
+            | SolverError::Projection { .. }
+            | SolverError::NonFinite(_)
+            | SolverError::NonFiniteJacobian
+    )
 }
