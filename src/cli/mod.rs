@@ -184,6 +184,16 @@ struct GenerateArgs {
     /// (36 sides; see docs/double_ring_stowing.md).
     #[arg(long, allow_negative_numbers = true)]
     latch_capture_m: Option<f64>,
+    /// ring: members `elastic` along their axis (`[solver] elastic_members`; the bay-by-bay
+    /// ring's default) or `rigid` (the default of --stow and --sync).
+    #[arg(long, value_enum)]
+    members: Option<MembersArg>,
+}
+
+#[derive(Clone, Copy, Debug, ValueEnum, PartialEq, Eq)]
+pub enum MembersArg {
+    Elastic,
+    Rigid,
 }
 
 #[derive(Args, Debug)]
@@ -598,6 +608,7 @@ fn generate_doc(a: &GenerateArgs) -> Result<model::ModelDoc, Failure> {
         ("--stroke-stop-damping", a.stroke_stop_damping.is_some()),
         ("--inner-chord-m", a.inner_chord_m.is_some()),
         ("--latch-capture-m", a.latch_capture_m.is_some()),
+        ("--members", a.members.is_some()),
     ];
     if let (false, Some((name, _))) = (matches!(a.kind, Kind::Ring), ring_only.iter().find(|o| o.1))
     {
@@ -657,6 +668,9 @@ fn generate_doc(a: &GenerateArgs) -> Result<model::ModelDoc, Failure> {
                 inner_chord_m: a.inner_chord_m.unwrap_or(d.inner_chord_m),
                 latch: latch_option(&a)?,
                 latch_capture_m: a.latch_capture_m.unwrap_or(d.latch_capture_m),
+                elastic_members: a
+                    .members
+                    .map_or(d.elastic_members, |m| m == MembersArg::Elastic),
                 ..d
             };
             if let Some(r) = a.latch_capture_m {

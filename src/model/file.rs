@@ -764,6 +764,8 @@ pub struct ModelDoc {
     pub dt_s: f64,
     pub end_time_s: f64,
     pub damping_n_s_per_m: f64,
+    /// Writes `[solver] elastic_members = true` (rigid members when false).
+    pub elastic_members: bool,
     pub joints: Vec<JointDoc>,
     pub elements: Vec<ElementDoc>,
     pub cables: Vec<CableDoc>,
@@ -832,6 +834,9 @@ impl ModelDoc {
             num(self.end_time_s),
             num(self.damping_n_s_per_m)
         );
+        if self.elastic_members {
+            o += "\n[solver]\nelastic_members = true\n";
+        }
         for j in &self.joints {
             o += &format!(
                 "\n[[joint]]\nname = {}\nposition_m = {}\nmass_kg = {}\n",

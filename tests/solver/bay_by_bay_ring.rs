@@ -4,8 +4,8 @@
 //! Oracles: member lengths of the closed-form fold, the rank of the
 //! constraint Jacobian (by hand: n - 3 mechanisms with ball-jointed inner
 //! chords), the closed-form reference geometry, the energy ledger; the
-//! latch order against the position along the drive cable (capstan
-//! friction: the tension falls away from the motor).
+//! latch order against the distance from the boom's clamp, the deploy time
+//! against friction (capstan losses slow the drive).
 
 use std::path::Path;
 use truss_deploy::model::generate::ring::{ring, RingParams};
@@ -236,18 +236,41 @@ fn the_bay_by_bay_ring_has_many_mechanisms_before_its_latches_and_none_after() {
     }
 }
 
+/// What a deployment to full lock measured.
+struct Deployment {
+    t_s: f64,
+    /// Outer bay k's latch time by k.
+    bays: Vec<f64>,
+    /// Distinct latch instants (1e-6 s apart or more).
+    distinct: usize,
+    first_s: f64,
+    last_s: f64,
+    /// The sleeve that latched first.
+    first_name: String,
+}
+
 /// One deployment to full lock: every sleeve latched, with the figures the
-/// run must meet; returns (deploy time, outer bay k's latch time by k, the
-/// number of distinct latch instants, first and last latch).
-/// `until_s` bounds the run (simulated seconds), `max_captured` the latches
-/// captured after a failed sub-step or carried past their lock by a capture.
-fn deploy_to_full_lock(
-    model: Model,
-    until_s: f64,
-    max_captured: u64,
-) -> (f64, Vec<f64>, usize, f64, f64) {
+/// run must meet.
+/// `until_s` bounds the run (simulated seconds), `max_accepting` the
+/// results accepted inexact (`SolverStats::accepting_fallbacks`: unconverged
+/// solves, sub-steps over their ledger budget or making energy, captures,
+/// closings), every kind together.
+fn deploy_to_full_lock(model: Model, until_s: f64, max_accepting: u64) -> Deployment {
     let dt = model.dt_s;
     let reference = model.reference.clone().unwrap();
+    // Elastic members end stretched by the drive's preload: strain at most
+    // the motor's tension limit over EA (60 N / 6e6 N = 1e-5), so the
+    // deployed shape is the reference to that strain, not to roundoff.
+    let strain = if model.solver.elastic_members {
+        model
+            .cables
+            .iter()
+            .map(|c| c.max_tension_n)
+            .fold(0.0, f64::max)
+            / model.axial_stiffness_n
+    } else {
+        0.0
+    };
     let mut sim = Simulator::new(model, Options::default()).unwrap();
     // (bounded: until_s simulated, until_s / dt steps)
     let mut reported = 0;
@@ -256,29 +279,41 @@ fn deploy_to_full_lock(
         reported += sim.step(dt).unwrap();
     }
     assert_eq!(reported, sim.state().locks.len(), "the steps' latch events");
-    let captured = sim.solver_stats().fallbacks.latch_captured;
+    let stats = sim.solver_stats();
+    let accepting = stats.accepting_fallbacks();
     let s = sim.state();
     let m = sim.model();
     let final_error = s.final_error_rel(m).unwrap();
     let balance = s.energy.balance_rel_error(s.kinetic_energy_j(m));
     let t = s.deploy_time_s.unwrap();
     println!(
-        "deployed at {t:.3} s, final error {final_error:.1e}, max |Phi| {:.1e} m, balance {balance:.1e}, {captured} latches captured",
-        s.max_violation_m
+        "deployed at {t:.3} s, final error {final_error:.1e}, max |Phi| {:.1e} m, balance {balance:.1e}, \
+         accepting fallbacks {:?}",
+        s.max_violation_m,
+        stats.accepting_fallbacks_by_kind()
     );
     assert!(
-        captured <= max_captured,
-        "{captured} latches captured (at most {max_captured})"
+        accepting <= max_accepting,
+        "{accepting} results accepted inexact (at most {max_accepting}): {:?}",
+        stats.accepting_fallbacks_by_kind()
     );
-    assert!(final_error <= 1e-6, "final error {final_error}");
+    assert!(final_error <= 1e-6 + strain, "final error {final_error}");
     assert!(s.max_violation_m <= 1e-9, "|Phi| {}", s.max_violation_m);
     assert!(balance <= 1e-4, "energy balance {balance}");
     assert_eq!(s.locks.len(), m.locks.len(), "every sleeve latched");
-    // onto the closed-form reference, up to the post mount's placement
+    // onto the closed-form reference, up to the post mount's placement and
+    // the members' stretch over the ring's diameter
+    let (lo, hi) = (0..reference.len()).fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), i| {
+        (a.min(reference[i]), b.max(reference[i]))
+    });
     let worst = (0..reference.len())
         .map(|i| (s.x[i] - reference[i]).abs())
         .fold(0.0, f64::max);
-    assert!(worst <= 1e-6, "{worst} m from the reference");
+    println!("{worst:.2e} m from the reference");
+    assert!(
+        worst <= 1e-6 + strain * (hi - lo),
+        "{worst} m from the reference"
+    );
     let times: Vec<f64> = s.locks.iter().map(|l| l.time_s).collect();
     let (first, last) = (
         times.iter().copied().fold(f64::INFINITY, f64::min),
@@ -298,93 +333,127 @@ fn deploy_to_full_lock(
                 .time_s
         })
         .collect();
-    (t, bays, distinct.len(), first, last)
+    let first_name = s
+        .locks
+        .iter()
+        .min_by(|a, b| a.time_s.total_cmp(&b.time_s))
+        .unwrap()
+        .name
+        .clone();
+    Deployment {
+        t_s: t,
+        bays,
+        distinct: distinct.len(),
+        first_s: first,
+        last_s: last,
+        first_name,
+    }
 }
 
-/// Spearman's rank correlation of the bays' latch times with their position
-/// along the drive cable (bay k is the k-th diagonal from the motor). Bays
-/// latching at the same instant (within 1e-6 s, as `distinct` counts them)
-/// share their mean rank: ranked in index order instead, a tie would count
-/// as the very ordering along the cable that is measured.
-fn rank_correlation(times: &[f64]) -> f64 {
-    let n = times.len();
-    let mut order: Vec<usize> = (0..n).collect();
-    order.sort_by(|&a, &b| times[a].total_cmp(&times[b]));
-    let mut rank = vec![0.0; n];
-    let mut i = 0;
-    while i < n {
-        let mut j = i;
-        while j + 1 < n && times[order[j + 1]] - times[order[i]] < 1e-6 {
-            j += 1;
+/// Spearman's rank correlation of the bays' latch times with `key` (bay k's
+/// value). Bays latching at the same instant (within 1e-6 s, as `distinct`
+/// counts them), and bays of equal key, share their mean rank: ranked in
+/// index order instead, a tie would count as the very ordering measured.
+fn rank_correlation(times: &[f64], key: &[f64]) -> f64 {
+    fn ranks(v: &[f64], tie: f64) -> Vec<f64> {
+        let n = v.len();
+        let mut order: Vec<usize> = (0..n).collect();
+        order.sort_by(|&a, &b| v[a].total_cmp(&v[b]));
+        let mut rank = vec![0.0; n];
+        let mut i = 0;
+        while i < n {
+            let mut j = i;
+            while j + 1 < n && v[order[j + 1]] - v[order[i]] < tie {
+                j += 1;
+            }
+            for &k in &order[i..=j] {
+                rank[k] = 0.5 * (i + j) as f64;
+            }
+            i = j + 1;
         }
-        for &k in &order[i..=j] {
-            rank[k] = 0.5 * (i + j) as f64;
-        }
-        i = j + 1;
+        rank
     }
-    let mean = (n as f64 - 1.0) / 2.0;
-    let (mut num, mut den) = (0.0, 0.0);
-    for (k, r) in rank.iter().enumerate() {
-        num += (k as f64 - mean) * (r - mean);
-        den += (k as f64 - mean).powi(2);
+    let (a, b) = (ranks(times, 1e-6), ranks(key, 1e-12));
+    let mean = |r: &[f64]| r.iter().sum::<f64>() / r.len() as f64;
+    let (ma, mb) = (mean(&a), mean(&b));
+    let (mut num, mut da, mut db) = (0.0, 0.0, 0.0);
+    for (x, y) in a.iter().zip(&b) {
+        num += (x - ma) * (y - mb);
+        da += (x - ma).powi(2);
+        db += (y - mb).powi(2);
     }
-    num / den
+    num / (da * db).sqrt()
 }
 
 /// A ring deploys from its bundle to full lock, bay by bay, at mu 0.005
-/// (`low`) and at four times the pulley friction (mu 0.02, `high`): the
-/// latches spread over more than 5 % of the deploy time at least sides/2
-/// distinct instants, the first bays to latch are the ones the cable enters
-/// first (the sides/9 nearest the motor: 0 and 1 of 18, 0 to 3 of 36), and
-/// at mu 0.02 the last latch lags the first by more seconds and the
-/// order follows the cable more closely (rank correlation of latch time
-/// with position along the cable higher, and positive in both).
-fn friction_orders_the_bays(low: Model, high: Model, until_s: f64, max_captured: u64) {
+/// (`low`) and at four times the pulley friction (mu 0.02, `high`). In both
+/// the latches spread over more than 5 % of the deploy time at least sides/2
+/// distinct instants, the radial frames' first; the outer bays flatten
+/// towards the boom's clamp (post O0): the two bays at the clamped post latch
+/// last, and the bays' latch times fall with the distance from the clamp
+/// (rank correlation below 0: -0.90 measured at 18 sides, -0.30 at 36, where
+/// the first bays to latch are 3 to 7 bays from the clamp). Friction slows the
+/// drive (capstan losses at every pulley): at mu 0.02 the ring deploys later
+/// and its latches spread over more seconds.
+fn friction_orders_the_bays(low: Model, high: Model, until_s: f64, max_accepting: u64) {
     let sides = low.locks.len() / 3;
+    // bays from the clamp: bay k spans posts k and k + 1
+    let from_clamp: Vec<f64> = (0..sides).map(|k| k.min(sides - 1 - k) as f64).collect();
     let mut runs = Vec::new();
     for (mu, model) in [(0.005, low), (0.02, high)] {
-        let (t, bays, distinct, first, last) = deploy_to_full_lock(model, until_s, max_captured);
+        let Deployment {
+            t_s: t,
+            bays,
+            distinct,
+            first_s: first,
+            last_s: last,
+            first_name,
+        } = deploy_to_full_lock(model, until_s, max_accepting);
+        let first_bay = bays.iter().copied().fold(f64::INFINITY, f64::min);
         let spread = (last - first) / t;
-        let bay_lag = bays.iter().copied().fold(0.0, f64::max)
-            - bays.iter().copied().fold(f64::INFINITY, f64::min);
-        let rho = rank_correlation(&bays);
+        let rho = rank_correlation(&bays, &from_clamp);
         let mut order: Vec<usize> = (0..sides).collect();
         order.sort_by(|&a, &b| bays[a].total_cmp(&bays[b]));
         println!(
             "mu {mu}: deployed {t:.3} s, latches {first:.2}-{last:.2} s (spread {:.1} %, {distinct} instants), \
-             bays {bay_lag:.3} s apart, order {order:?}, rank correlation {rho:.3}",
+             first outer bay {first_bay:.3} s, order {order:?}, rank correlation with the distance from the clamp {rho:.3}",
             100.0 * spread
         );
         assert!(spread >= 0.05, "spread {spread}");
         assert!(distinct >= sides / 2, "{distinct} distinct latch instants");
-        // the first sides/9 bays to latch (2 of 18, 4 of 36) are the
-        // sides/9 nearest the motor
-        let near = sides / 9;
-        let mut leading = order[..near].to_vec();
-        leading.sort();
-        assert_eq!(
-            leading,
-            (0..near).collect::<Vec<_>>(),
-            "the first bays to latch: {order:?}"
+        assert!(
+            first_name.starts_with('R') && first < first_bay,
+            "the first latch is {first_name}'s at {first} s"
         );
-        assert!(rho > 0.0, "rank correlation {rho}");
-        runs.push((last - first, rho));
+        assert!(
+            rho < 0.0,
+            "rank correlation with the distance from the clamp {rho}"
+        );
+        let mut last_two = order[sides - 2..].to_vec();
+        last_two.sort();
+        assert_eq!(
+            last_two,
+            vec![0, sides - 1],
+            "the last bays to latch: {order:?}"
+        );
+        runs.push((t, last - first));
     }
-    let ((lag_low, rho_low), (lag_high, rho_high)) = (runs[0], runs[1]);
+    let ((t_low, lag_low), (t_high, lag_high)) = (runs[0], runs[1]);
+    assert!(
+        t_high > t_low,
+        "deployed at {t_high} s at mu 0.02 vs {t_low} s"
+    );
     assert!(
         lag_high > lag_low,
         "spread {lag_high} s at mu 0.02 vs {lag_low} s"
     );
-    assert!(
-        rho_high > rho_low,
-        "rank correlation {rho_high} at mu 0.02 vs {rho_low}"
-    );
 }
 
-/// The bundled ring (mu 0.005) and the same at mu 0.02 (the capture after a
-/// failed sub-step is a fallback near the flat state: 0 and 1 measured).
+/// The bundled ring (mu 0.005, elastic members) and the same at mu 0.02:
+/// at most one result accepted inexact (0 and 1 measured: at mu 0.02 one
+/// sub-step over its ledger budget at the shortest sub-step).
 #[test]
-#[ignore = "two ring deployments, ~4 min in the test profile; CI runs it (.ci/run: slow physics runs)"]
+#[ignore = "two ring deployments, ~2 min in the test profile; CI runs it (.ci/run: slow physics runs)"]
 fn the_bundled_ring_deploys_to_full_lock_bay_by_bay_and_friction_orders_it() {
     let bundled = load(&Path::new(env!("CARGO_MANIFEST_DIR")).join("models/double_ring.toml"))
         .unwrap()
@@ -393,7 +462,7 @@ fn the_bundled_ring_deploys_to_full_lock_bay_by_bay_and_friction_orders_it() {
         friction_mu: 0.02,
         ..RingParams::bay_by_bay()
     });
-    friction_orders_the_bays(bundled, high, 2000.0, 3);
+    friction_orders_the_bays(bundled, high, 2000.0, 1);
 }
 
 /// The 36-sided ring as `generate ring --sides 36 --inner-chord-m 0.7353

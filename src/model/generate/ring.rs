@@ -88,6 +88,11 @@ pub struct RingParams {
     pub stroke_stop: Option<super::LatchParams>,
     /// Bay-by-bay ring: stroke beyond the symmetric fold's extreme lengths (m).
     pub stroke_margin_m: f64,
+    /// Members elastic along their axis (`[solver] elastic_members`, EA the
+    /// model-wide `axial_stiffness_n`): the bay-by-bay ring's default, whose
+    /// last bays flatten together through a near-singular state that rigid
+    /// members meet with unconverged solves (docs/solver.md#elastic-members).
+    pub elastic_members: bool,
 }
 
 impl Default for RingParams {
@@ -120,6 +125,7 @@ impl Default for RingParams {
             },
             stroke_stop: None,
             stroke_margin_m: 0.005,
+            elastic_members: false,
         }
     }
 }
@@ -149,9 +155,22 @@ impl RingParams {
         RingParams {
             bay_by_bay: true,
             inner_hinges: false,
+            elastic_members: true,
             ..RingParams::stowing()
         }
     }
+}
+
+/// The note of elastic members (`RingParams::elastic_members`), if they are.
+pub fn members_note(p: &RingParams) -> Option<String> {
+    p.elastic_members.then(|| {
+        "Members elastic along their axis ([solver] elastic_members; EA the solver's default, 6e6 N, \
+         as a 20 mm carbon tube; assumed, not a measured value): the last bays flatten together through \
+         a near-singular state (docs/double_ring_stowing.md Finding 5) that rigid members cross only with \
+         unconverged solves; elastic ones keep it well posed and stretch about 2.5 um per metre under the \
+         15 N drive (docs/solver.md#elastic-members). `--members rigid` writes rigid members."
+            .to_string()
+    })
 }
 
 /// Ring radii (r_o, r_i) of the symmetric configuration with zig-zag offset a (m).
@@ -549,11 +568,13 @@ fn synchronized_ring(p: &RingParams) -> Result<ModelDoc, String> {
         ]
         .into_iter()
         .chain(p.latch.as_ref().map(super::latch_note))
+        .chain(members_note(p))
         .chain(p.latch.map(|_| "The radial members reach their lock at their shortest (the flat state), where nothing moves along them: they have no transient and latch rigid once the diagonals' transients are over.".to_string()))
         .collect(),
         dt_s: p.dt_s,
         end_time_s: 600.0,
         damping_n_s_per_m: p.damping_n_s_per_m,
+        elastic_members: p.elastic_members,
         joints,
         elements,
         cables: vec![cable("O"), cable("I")],

@@ -35,7 +35,8 @@
 
 use super::super::file::{CableDoc, ElementDoc, ModelDoc};
 use super::ring::{
-    fix_joint, hub_mount, ring_joints, RingParams, CHORD_UNIT_NOTE, DAMPING_NOTE, NUMBERING_NOTE,
+    fix_joint, hub_mount, members_note, ring_joints, RingParams, CHORD_UNIT_NOTE, DAMPING_NOTE,
+    NUMBERING_NOTE,
 };
 use crate::solver::elements::Param;
 use std::f64::consts::PI;
@@ -528,6 +529,7 @@ pub fn stowing_ring(p: &RingParams) -> Result<ModelDoc, String> {
             dt_s: p.dt_s,
             end_time_s: 2000.0,
             damping_n_s_per_m: p.damping_n_s_per_m,
+            elastic_members: p.elastic_members,
             joints,
             elements,
             cables: vec![cable],
@@ -567,10 +569,12 @@ pub fn stowing_ring(p: &RingParams) -> Result<ModelDoc, String> {
         ]
         .into_iter()
         .chain(p.latch.as_ref().map(super::latch_note))
+        .chain(members_note(p))
         .collect(),
         dt_s: p.dt_s,
         end_time_s: 600.0,
         damping_n_s_per_m: p.damping_n_s_per_m,
+        elastic_members: p.elastic_members,
         joints,
         elements,
         cables: vec![cable],
@@ -604,6 +608,7 @@ fn bay_by_bay_notes(p: &RingParams, extent: f64, (te, to): (f64, f64), post: boo
     notes.push(DAMPING_NOTE.into());
     notes.push(NUMBERING_NOTE.into());
     notes.extend(p.latch.as_ref().map(super::latch_note));
+    notes.extend(members_note(p));
     notes.extend(p.stroke_stop.as_ref().map(|s| format!(
         "Stroke stops (`--stroke-stops`; assumed, not a measured value): every sleeve's telescoping tube ends its stroke {} m beyond the length it takes along the symmetric fold farthest from its lock (an `end_stop` element, {} N/m, {} N s/m), so no bay folds tighter, and no frame shears further the wrong way, than the symmetric fold takes it (docs/double_ring_stowing.md, \"Why the 36-sided ring jams\").",
         p.stroke_margin_m, s.stiffness_n_per_m, s.damping_n_s_per_m

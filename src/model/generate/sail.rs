@@ -366,6 +366,7 @@ pub fn sail(p: &SailParams) -> Result<ModelDoc, String> {
         dt_s: p.dt_s,
         end_time_s: 600.0,
         damping_n_s_per_m: p.damping_n_s_per_m,
+        elastic_members: false,
         joints,
         elements,
         cables,
