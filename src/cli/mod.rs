@@ -159,7 +159,8 @@ struct GenerateArgs {
     /// mast, ring: damping of the compliant latches (N s/m; needs --latch-stiffness).
     #[arg(long, allow_negative_numbers = true)]
     latch_damping: Option<f64>,
-    /// ring (bay-by-bay): stiffness of the compliant gears at the outer posts (N/m; default 100).
+    /// ring (bay-by-bay): stiffness of the compliant gears at the outer posts (N/m; default 100,
+    /// 1000 above 18 sides).
     #[arg(long, allow_negative_numbers = true)]
     gear_stiffness: Option<f64>,
     /// ring (bay-by-bay): damping of the gears (N s/m; default 5).
@@ -167,7 +168,8 @@ struct GenerateArgs {
     gear_damping: Option<f64>,
     /// ring (bay-by-bay): end stops of this stiffness (N/m) at every sleeve's stroke end, the
     /// length it takes along the symmetric fold farthest from its lock plus 5 mm (an `end_stop`
-    /// element each); none without it. For rings whose bays fold the wrong way (36 sides).
+    /// element each). Default: none up to 18 sides, 1e4 above (where bays fold the wrong way
+    /// without them); 0 for none.
     #[arg(long, allow_negative_numbers = true)]
     stroke_stops: Option<f64>,
     /// ring (bay-by-bay): damping of the end stops (N s/m; default 50; needs --stroke-stops).
@@ -175,7 +177,8 @@ struct GenerateArgs {
     stroke_stop_damping: Option<f64>,
     /// ring: inner chord (m; default the paper's 0.6167). The paper's chords make the ring's
     /// depth its mean chord at 18 sides, so that it folds to a bundle: on n sides the same rule
-    /// gives c_o (1 - sin(pi/n)) / (1 + sin(pi/n)) (0.7353 m at 36; see docs/double_ring_stowing.md).
+    /// gives c_o (1 - sin(pi/n)) / (1 + sin(pi/n)) (0.7353 m at 36; see docs/double_ring_stowing.md),
+    /// the bay-by-bay ring's default above 18 sides.
     #[arg(long, allow_negative_numbers = true)]
     inner_chord_m: Option<f64>,
     /// ring: capture range of the rigid latches (m; default 0, none): a sleeve within it of its
@@ -270,14 +273,20 @@ fn bay_by_bay_options(
             "{name} is an option of the bay-by-bay ring (the default `generate ring`), not of --sync or --stow"
         )));
     }
-    if a.stroke_stop_damping.is_some() && a.stroke_stops.is_none() {
+    // (--stroke-stops 0: none, also where the ring's size brings them)
+    let stroke_k = match a.stroke_stops {
+        Some(k) => Some(k).filter(|&k| k != 0.0),
+        None => p.stroke_stop.as_ref().map(|s| s.stiffness_n_per_m),
+    };
+    if a.stroke_stop_damping.is_some() && stroke_k.is_none() {
         return Err(Failure::input(
-            "--stroke-stop-damping needs --stroke-stops (the stops' stiffness)",
+            "--stroke-stop-damping needs stroke stops (--stroke-stops K, K > 0)",
         ));
     }
     for (name, v) in given {
         if let Some(v) = v {
-            if !(v.is_finite() && v >= 0.0) || (v == 0.0 && !name.ends_with("damping")) {
+            let zero_ok = name.ends_with("damping") || name == "--stroke-stops";
+            if !(v.is_finite() && v >= 0.0) || (v == 0.0 && !zero_ok) {
                 return Err(Failure::input(format!(
                     "{name} {v}: give a finite stiffness > 0 (N/m) or damping >= 0 (N s/m)"
                 )));
@@ -288,9 +297,12 @@ fn bay_by_bay_options(
         stiffness_n_per_m: a.gear_stiffness.unwrap_or(p.gear.stiffness_n_per_m),
         damping_n_s_per_m: a.gear_damping.unwrap_or(p.gear.damping_n_s_per_m),
     };
-    let stroke_stop = a.stroke_stops.map(|k| generate::LatchParams {
+    let stroke_stop = stroke_k.map(|k| generate::LatchParams {
         stiffness_n_per_m: k,
-        damping_n_s_per_m: a.stroke_stop_damping.unwrap_or(50.0),
+        damping_n_s_per_m: a
+            .stroke_stop_damping
+            .or(p.stroke_stop.as_ref().map(|s| s.damping_n_s_per_m))
+            .unwrap_or(50.0),
     });
     Ok(generate::ring::RingParams {
         gear,
@@ -656,7 +668,7 @@ fn generate_doc(a: &GenerateArgs) -> Result<model::ModelDoc, Failure> {
             } else if a.stow {
                 generate::ring::RingParams::stowing()
             } else {
-                generate::ring::RingParams::bay_by_bay()
+                generate::ring::RingParams::bay_by_bay_sized(a.sides)
             };
             let p = generate::ring::RingParams {
                 sides: a.sides,

@@ -159,6 +159,36 @@ impl RingParams {
             ..RingParams::stowing()
         }
     }
+    /// The bay-by-bay ring of `sides` sides as `generate ring --sides N`
+    /// writes it: the 18-sided ring's parameters up to 18 sides; above, what
+    /// a larger ring needs to deploy (docs/double_ring_stowing.md, "Why the
+    /// 36-sided ring jams" and after): the inner chord by the bundle rule
+    /// c_o (1 - sin(pi/n)) / (1 + sin(pi/n)) (to 0.1 mm, as the paper prints
+    /// its chords; the paper's 0.6167 m is the rule at 18 sides), stroke stops
+    /// of 1e4 N/m and 50 N s/m at every sleeve's stroke end (no bay folds the
+    /// wrong way) and gears of 1000 N/m.
+    pub fn bay_by_bay_sized(sides: usize) -> Self {
+        let d = RingParams {
+            sides,
+            ..RingParams::bay_by_bay()
+        };
+        if sides <= 18 {
+            return d;
+        }
+        let s = (std::f64::consts::PI / sides as f64).sin();
+        RingParams {
+            inner_chord_m: (d.outer_chord_m * (1.0 - s) / (1.0 + s) * 1e4).round() / 1e4,
+            stroke_stop: Some(super::LatchParams {
+                stiffness_n_per_m: 1e4,
+                damping_n_s_per_m: 50.0,
+            }),
+            gear: super::LatchParams {
+                stiffness_n_per_m: 1000.0,
+                ..d.gear
+            },
+            ..d
+        }
+    }
 }
 
 /// The note of elastic members (`RingParams::elastic_members`), if they are.
