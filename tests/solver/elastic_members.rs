@@ -222,3 +222,103 @@ fn every_bundled_model_deploys_without_rescue() {
         }
     }
 }
+
+/// A 1 kg joint falling along z on a sleeve from a fixed joint (start
+/// length 0.9 m, lock 1.0 m) whose compliant latch (k 1e4 N/m, 50 N s/m)
+/// catches it; joint damping 20 N s/m, sleeve EA 1e6 N.
+fn falling_on_a_latch(elastic: bool) -> Model {
+    let text = format!(
+        r#"[model]
+name = "falling_on_a_latch"
+
+[settings]
+dt_s = 0.01
+end_time_s = 4.0
+gravity_m_s2 = [0.0, 0.0, -9.81]
+damping_n_s_per_m = 20.0
+
+[solver]
+elastic_members = {elastic}
+
+[[joint]]
+name = "A"
+position_m = [0.0, 0.0, 0.0]
+mass_kg = 1.0
+
+[[joint]]
+name = "B"
+position_m = [0.0, 0.0, -0.9]
+mass_kg = 1.0
+
+[[element]]
+type = "support"
+name = "top"
+joints = ["A"]
+fix = "xyz"
+
+[[element]]
+type = "support"
+name = "guide"
+joints = ["B"]
+fix = "xy"
+
+[[element]]
+type = "sleeve"
+name = "latch"
+joints = ["A", "B"]
+lock_length_m = 1.0
+latch_stiffness_n_per_m = 1e4
+latch_damping_n_s_per_m = 50.0
+axial_stiffness_n = 1e6
+"#
+    );
+    parse(&text, "falling_on_a_latch.toml")
+        .expect("loads")
+        .model
+}
+
+/// A compliant latch whose transient has ended hands its load to the
+/// sleeve's row. With elastic members that row is the tube in series with
+/// the latch (c = L/EA + 1/k), so the joint hangs where the closed form puts
+/// it, m g (1/k + L/EA) past the lock, with the energy ledger closed and the
+/// strain energy held 1/2 (m g)^2 c; with rigid members the latch turns rigid
+/// at its lock length.
+#[test]
+fn a_settled_compliant_latch_keeps_its_load_on_elastic_members() {
+    let (m, g, k, ea, l) = (1.0, 9.81, 1e4, 1e6, 1.0);
+    let c = l / ea + 1.0 / k;
+    for elastic in [true, false] {
+        let mut sim = Simulator::new(falling_on_a_latch(elastic), Options::default()).unwrap();
+        // (bounded: 400 steps)
+        while sim.state().t_s < 4.0 - 0.005 {
+            sim.step(0.01).expect("steps");
+        }
+        let s = sim.state();
+        assert_eq!(s.locks.len(), 1);
+        assert!(s.locks[0].rigid_at_s.is_some(), "the transient ended");
+        let stretch = -s.x[5] - l;
+        let balance = s.energy.balance_rel_error(s.kinetic_energy_j(sim.model()));
+        eprintln!(
+            "elastic {elastic}: stretch {stretch:e} m (closed form {:e}), strain {:e} J, balance {balance:.1e}",
+            m * g * c,
+            s.energy.member_strain_energy_j
+        );
+        assert!(balance <= 1e-5, "balance error {balance:e}");
+        assert_eq!(sim.solver_stats().accepting_fallbacks(), 0);
+        if elastic {
+            assert!(
+                (stretch - m * g * c).abs() <= 1e-6 * m * g * c,
+                "stretch {stretch:e} m, closed form {:e} m",
+                m * g * c
+            );
+            let held = 0.5 * (m * g).powi(2) * c;
+            assert!(
+                (s.energy.member_strain_energy_j - held).abs() <= 1e-4 * held,
+                "strain energy {:e} J, closed form {held:e} J",
+                s.energy.member_strain_energy_j
+            );
+        } else {
+            assert!(stretch.abs() <= 1e-9, "stretch {stretch:e} m");
+        }
+    }
+}

@@ -170,6 +170,14 @@ impl Core {
 
     fn set_compliance(&mut self, model: &Model) {
         LeastWork::row_compliance(model, &self.jac, &mut self.row_compliance);
+        // A latched sleeve with a compliant latch is its tube in series with
+        // the latch: c = L/EA + 1/k, so its force k g carries on when the
+        // latch's transient ends and its row takes over (`settle_transients`).
+        for b in &self.jac.blocks {
+            if let Some((k, _)) = model.elements[b.element].latch_spring() {
+                self.row_compliance[b.row0] += 1.0 / k;
+            }
+        }
         let rigid = 1e-6 * model.stiffest_compliance_m_per_n;
         self.row_member.clear();
         self.row_member

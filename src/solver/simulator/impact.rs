@@ -448,8 +448,26 @@ impl Simulator {
             .filter(|tr| due.contains(&tr.element))
         {
             let g = gap(&self.model, tr.element, &self.state.x);
-            let spring_j = 0.5 * tr.stiffness_n_per_m * g * g;
+            let k = tr.stiffness_n_per_m;
+            let spring_j = 0.5 * k * g * g;
             self.state.energy.latch_spring_energy_j -= spring_j;
+            // Elastic members: the sleeve's row holds its deflection g at
+            // compliance c = L/EA + 1/k (`Core::set_compliance`), strain
+            // 1/2 g^2/c; what the tube's own compliance takes off the
+            // spring's energy is the latch's loss. Rigid: all of it.
+            let held_j = if self.settings.elastic_members {
+                let mut c = [f64::NAN];
+                self.model.elements[tr.element].row_compliance_m_per_n(
+                    true,
+                    self.model.axial_stiffness_n,
+                    &mut c,
+                );
+                0.5 * g * g / (c[0] + 1.0 / k)
+            } else {
+                0.0
+            };
+            self.state.energy.member_strain_energy_j += held_j;
+            let spring_j = spring_j - held_j;
             self.state.energy.lock_loss_j += spring_j;
             settled.push((tr.event, tr.sign, tr.impulse_ns, tr.dissipated_j + spring_j));
         }
