@@ -151,7 +151,9 @@ pub struct SolverSettings {
     /// trapezoid across the force's kink; a crossing within this fraction
     /// of the trial's end, or a cut below the shortest sub-step, is not cut.
     pub contact_cut_rel: f64,
-    /// A step is complete when less than this fraction of it remains.
+    /// A step is complete when less than this fraction of it remains (or
+    /// less than 8 units of roundoff of its end time: late in a run its
+    /// sub-steps may add up to an ulp or two short of it).
     pub step_end_rel: f64,
     /// Fixed-point iterations of the accelerations with cable inertia where a
     /// step starts from scratch (the start, a latch, a command change) ...
