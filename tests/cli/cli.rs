@@ -587,7 +587,7 @@ fn generate_ring_gear_and_stroke_stop_options() {
             vec!["--stow", "--stroke-stops", "1e4"],
             "--stroke-stops is an option of the bay-by-bay ring",
         ),
-        (vec!["--stroke-stop-damping", "5"], "needs --stroke-stops"),
+        (vec!["--stroke-stop-damping", "5"], "needs stroke stops"),
         (vec!["--gear-stiffness", "0"], "--gear-stiffness 0"),
         (vec!["--stroke-stops", "-1"], "--stroke-stops -1"),
         (vec!["--inner-chord-m", "0.9"], "--inner-chord-m 0.9"),
