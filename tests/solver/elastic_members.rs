@@ -8,16 +8,17 @@ use truss_deploy::model::generate::{self, MastParams};
 use truss_deploy::model::parse;
 use truss_deploy::solver::{Model, Options, Simulator, SolverKind};
 
-/// A 1 m bar from a fixed joint down to a 1 kg joint that may only move
-/// along the bar (z), under gravity, EA `ea_n`, joint damping 20 N s/m.
-fn hanging_bar(ea_n: f64, elastic: bool) -> Model {
+/// A fixed joint A at the origin and a 1 kg joint B at `b_z_m` below it that
+/// may only move along z, under gravity, joint damping 20 N s/m, dt 0.01 s,
+/// joined by `element` (the TOML of one element on A and B).
+fn a_joint_below(name: &str, elastic: bool, b_z_m: f64, element: &str) -> Model {
     let text = format!(
         r#"[model]
-name = "hanging_bar"
+name = "{name}"
 
 [settings]
 dt_s = 0.01
-end_time_s = 3.0
+end_time_s = 4.0
 gravity_m_s2 = [0.0, 0.0, -9.81]
 damping_n_s_per_m = 20.0
 
@@ -31,7 +32,7 @@ mass_kg = 1.0
 
 [[joint]]
 name = "B"
-position_m = [0.0, 0.0, -1.0]
+position_m = [0.0, 0.0, {b_z_m:?}]
 mass_kg = 1.0
 
 [[element]]
@@ -47,13 +48,17 @@ joints = ["B"]
 fix = "xy"
 
 [[element]]
-type = "bar"
-name = "bar"
-joints = ["A", "B"]
-axial_stiffness_n = {ea_n:e}
-"#
+{element}"#
     );
-    parse(&text, "hanging_bar.toml").expect("loads").model
+    parse(&text, &format!("{name}.toml")).expect("loads").model
+}
+
+/// A 1 m bar from A down to B, EA `ea_n`.
+fn hanging_bar(ea_n: f64, elastic: bool) -> Model {
+    let bar = format!(
+        "type = \"bar\"\nname = \"bar\"\njoints = [\"A\", \"B\"]\naxial_stiffness_n = {ea_n:e}\n"
+    );
+    a_joint_below("hanging_bar", elastic, -1.0, &bar)
 }
 
 fn run_to(sim: &mut Simulator, t_end: f64) {
@@ -223,58 +228,12 @@ fn every_bundled_model_deploys_without_rescue() {
     }
 }
 
-/// A 1 kg joint falling along z on a sleeve from a fixed joint (start
-/// length 0.9 m, lock 1.0 m) whose compliant latch (k 1e4 N/m, 50 N s/m)
-/// catches it; joint damping 20 N s/m, sleeve EA 1e6 N.
+/// B falling on a sleeve from A (start length 0.9 m, lock 1.0 m) whose
+/// compliant latch (k 1e4 N/m, 50 N s/m) catches it; sleeve EA 1e6 N.
 fn falling_on_a_latch(elastic: bool) -> Model {
-    let text = format!(
-        r#"[model]
-name = "falling_on_a_latch"
-
-[settings]
-dt_s = 0.01
-end_time_s = 4.0
-gravity_m_s2 = [0.0, 0.0, -9.81]
-damping_n_s_per_m = 20.0
-
-[solver]
-elastic_members = {elastic}
-
-[[joint]]
-name = "A"
-position_m = [0.0, 0.0, 0.0]
-mass_kg = 1.0
-
-[[joint]]
-name = "B"
-position_m = [0.0, 0.0, -0.9]
-mass_kg = 1.0
-
-[[element]]
-type = "support"
-name = "top"
-joints = ["A"]
-fix = "xyz"
-
-[[element]]
-type = "support"
-name = "guide"
-joints = ["B"]
-fix = "xy"
-
-[[element]]
-type = "sleeve"
-name = "latch"
-joints = ["A", "B"]
-lock_length_m = 1.0
-latch_stiffness_n_per_m = 1e4
-latch_damping_n_s_per_m = 50.0
-axial_stiffness_n = 1e6
-"#
-    );
-    parse(&text, "falling_on_a_latch.toml")
-        .expect("loads")
-        .model
+    let sleeve = "type = \"sleeve\"\nname = \"latch\"\njoints = [\"A\", \"B\"]\nlock_length_m = 1.0\n\
+                  latch_stiffness_n_per_m = 1e4\nlatch_damping_n_s_per_m = 50.0\naxial_stiffness_n = 1e6\n";
+    a_joint_below("falling_on_a_latch", elastic, -0.9, sleeve)
 }
 
 /// A compliant latch whose transient has ended hands its load to the

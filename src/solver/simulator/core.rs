@@ -384,6 +384,8 @@ impl Core {
         to.lambda.clone_from(&self.lambda);
         to.cables.clone_from(&self.cables);
         to.violation_m = self.violation_m;
+        to.strain_j = self.strain_trial_j;
+        to.member_force.clone_from(&self.member_force_trial);
     }
 
     pub fn restore_trial(&mut self, from: &TrialCopy) {
@@ -393,6 +395,8 @@ impl Core {
         self.lambda.clone_from(&from.lambda);
         self.cables.clone_from(&from.cables);
         self.violation_m = from.violation_m;
+        self.strain_trial_j = from.strain_j;
+        self.member_force_trial.clone_from(&from.member_force);
     }
 }
 
@@ -405,4 +409,8 @@ pub(super) struct TrialCopy {
     lambda: Vec<f64>,
     cables: Vec<CableEval>,
     violation_m: f64,
+    /// Elastic members: the trial's strain energy (J) and member forces
+    /// A^T lambda, which the ledger books when the trial is accepted.
+    strain_j: f64,
+    member_force: Vec<f64>,
 }
