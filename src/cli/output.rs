@@ -42,6 +42,14 @@ pub fn check_outputs(inputs: &[&Path], outputs: &[(&str, &Path)]) -> Result<(), 
                 "{option} {shown} is a directory; give a file name"
             )));
         }
+        // (a device, pipe or socket: the output, written whole and renamed
+        // onto its path, would replace it; /dev/null too, when run as root)
+        if std::fs::metadata(path).is_ok_and(|m| !m.is_file()) {
+            return Err(Failure::input(format!(
+                "{option} {shown} is not a regular file (a device, pipe or socket), which writing \
+                 the output would replace; give a file name"
+            )));
+        }
         let Some(r) = resolved(path) else {
             return Err(Failure::input(format!(
                 "cannot write {option} {shown}: the directory {} does not exist; create it first or give another path",

@@ -160,6 +160,47 @@ fn a_missing_output_directory_is_found_before_the_run_and_nothing_is_written() {
     assert!(t0.elapsed() < Duration::from_secs(20));
 }
 
+/// An output path that is a pipe (or a device such as /dev/null) is bad
+/// input: the output is written whole and renamed onto its path, which would
+/// replace it. (A pipe, not /dev/null, so that a failure harms nothing.)
+#[test]
+fn an_output_that_is_not_a_regular_file_is_refused_and_left_alone() {
+    let d = temp_dir("special_output");
+    let fifo = d.join("pipe");
+    let made = Command::new("mkfifo").arg(&fifo).status();
+    if !made.is_ok_and(|s| s.success()) {
+        eprintln!("no mkfifo here: skipped");
+        return;
+    }
+    for args in [
+        vec!["simulate", "MODEL", "--until", "0.1", "--json", "OUT"],
+        vec!["generate", "mast", "-o", "OUT"],
+    ] {
+        let model = model("pantograph_mast.toml").display().to_string();
+        let out = fifo.display().to_string();
+        let args: Vec<&str> = args
+            .iter()
+            .map(|a| match *a {
+                "MODEL" => model.as_str(),
+                "OUT" => out.as_str(),
+                a => a,
+            })
+            .collect();
+        let o = run(&args);
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", text(&o.stderr));
+        assert!(
+            text(&o.stderr).contains("is not a regular file"),
+            "{}",
+            text(&o.stderr)
+        );
+        use std::os::unix::fs::FileTypeExt;
+        assert!(std::fs::symlink_metadata(&fifo)
+            .unwrap()
+            .file_type()
+            .is_fifo());
+    }
+}
+
 #[test]
 fn an_existing_output_survives_a_run_refused_for_bad_input() {
     let d = temp_dir("survives");
