@@ -450,8 +450,8 @@ fn friction_orders_the_bays(low: Model, high: Model, until_s: f64, max_accepting
 }
 
 /// The bundled ring (mu 0.005, elastic members) and the same at mu 0.02:
-/// at most one result accepted inexact (0 and 1 measured: at mu 0.02 one
-/// sub-step over its ledger budget at the shortest sub-step).
+/// no result accepted inexact (at mu 0.02 one sub-step over its ledger
+/// budget before a rejected dip's trial kept its member forces).
 #[test]
 #[ignore = "two ring deployments, ~2 min in the test profile; CI runs it (.ci/run: slow physics runs)"]
 fn the_bundled_ring_deploys_to_full_lock_bay_by_bay_and_friction_orders_it() {
@@ -462,7 +462,7 @@ fn the_bundled_ring_deploys_to_full_lock_bay_by_bay_and_friction_orders_it() {
         friction_mu: 0.02,
         ..RingParams::bay_by_bay()
     });
-    friction_orders_the_bays(bundled, high, 2000.0, 1);
+    friction_orders_the_bays(bundled, high, 2000.0, 0);
 }
 
 /// The ring `generate ring --sides N [--mu 0.02]` writes with its defaults
