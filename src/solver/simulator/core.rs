@@ -174,8 +174,8 @@ impl Core {
         // the latch: c = L/EA + 1/k, so its force k g carries on when the
         // latch's transient ends and its row takes over (`settle_transients`).
         for b in &self.jac.blocks {
-            if let Some((k, _)) = model.elements[b.element].latch_spring() {
-                self.row_compliance[b.row0] += 1.0 / k;
+            if model.elements[b.element].latch_spring().is_some() {
+                self.row_compliance[b.row0] = latched_sleeve_compliance(model, b.element);
             }
         }
         let rigid = 1e-6 * model.stiffest_compliance_m_per_n;
@@ -398,6 +398,15 @@ impl Core {
         self.strain_trial_j = from.strain_j;
         self.member_force_trial.clone_from(&from.member_force);
     }
+}
+
+/// The compliance of a latched sleeve's row (m/N): its tube's L/EA, in
+/// series with its compliant latch's 1/k where it has one.
+pub(super) fn latched_sleeve_compliance(model: &Model, e: usize) -> f64 {
+    let el = &model.elements[e];
+    let mut tube = [f64::NAN];
+    el.row_compliance_m_per_n(true, model.axial_stiffness_n, &mut tube);
+    tube[0] + el.latch_spring().map_or(0.0, |(k, _)| 1.0 / k)
 }
 
 /// A copy of a trial step, to come back to after trials of other lengths.

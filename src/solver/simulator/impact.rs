@@ -456,13 +456,7 @@ impl Simulator {
             // 1/2 g^2/c; what the tube's own compliance takes off the
             // spring's energy is the latch's loss. Rigid: all of it.
             let held_j = if self.settings.elastic_members {
-                let mut c = [f64::NAN];
-                self.model.elements[tr.element].row_compliance_m_per_n(
-                    true,
-                    self.model.axial_stiffness_n,
-                    &mut c,
-                );
-                0.5 * g * g / (c[0] + 1.0 / k)
+                0.5 * g * g / super::core::latched_sleeve_compliance(&self.model, tr.element)
             } else {
                 0.0
             };
