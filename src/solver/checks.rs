@@ -445,7 +445,9 @@ impl StallWatch {
 /// pulley sticks, with the truss at most creeping (the regularization lets it
 /// slide at a fraction of s_slip where Coulomb friction would hold it still),
 /// delivers no work: the drive's pull and what resists it (gears, members,
-/// damping) are within the friction's holding band. Held so for
+/// damping) are within the friction's holding band. The message gives the
+/// friction's share of the pull; a small one means the gears hold the truss
+/// (a frictionless drive creeps on there as well). Held so for
 /// `stick_confirm_s` without a latch, the run has stalled. The test is on
 /// velocities only (the accelerations of a stuck mode alternate from step to
 /// step under the trapezoidal rule and say nothing of the motion).
@@ -499,13 +501,27 @@ impl StickWatch {
         if state.t_s - since + 1e-12 < self.window_s {
             return None;
         }
+        // The friction's share of the pull: the pulleys hold the drop of
+        // tension along the cable, (T_max - T_min) / T_max; the rest of the
+        // pull the gears, members and damping balance. A small share means
+        // the truss would stop there without friction too.
+        let (t_min_n, t_max_n) = with_friction()
+            .flat_map(|(_, e)| e.segment_tension_n.iter().copied())
+            .fold((f64::INFINITY, 0.0f64), |(lo, hi), t| {
+                (lo.min(t), hi.max(t))
+            });
+        let share = if t_max_n > 0.0 {
+            100.0 * (t_max_n - t_min_n) / t_max_n
+        } else {
+            0.0
+        };
         Some(format!(
             "the drive sticks: since t = {since:.3} s every pulley has slid slower than its slip \
              speed (now |s| <= {sliding_max:.1e} m/s, slip speed {slip_max:.1e} m/s) and no joint \
-             moved faster than {vmax:.1e} m/s: the pulleys' static friction holds the drive's \
-             pull where what resists it (gears, members, damping) takes the rest, so the truss \
-             only creeps as the friction law's regularization lets it ([checks] \
-             stick_confirm_s = {}); {}",
+             moved faster than {vmax:.1e} m/s: the drive's pull is in balance with what resists \
+             it, the pulleys' friction holding {share:.1} % of its tension (segments \
+             {t_min_n:.3} to {t_max_n:.3} N) and the gears, members and damping the rest, so the \
+             truss only creeps ([checks] stick_confirm_s = {}); {}",
             self.window_s,
             unlatched_summary(model, state)
         ))
@@ -620,6 +636,11 @@ mod tests {
             s.t_s = t_s;
             for c in &mut s.cables {
                 c.sliding_m_s.fill(0.3 * slip);
+                // the pulleys take the tension from 10 N down to 9 N
+                let last = c.segment_tension_n.len() - 1;
+                for (k, t) in c.segment_tension_n.iter_mut().enumerate() {
+                    *t = 10.0 - k as f64 / last as f64;
+                }
             }
             s.v.fill(0.2 * slip);
             s
@@ -630,6 +651,10 @@ mod tests {
         let msg = w.update(m, &stuck_at(6.0)).expect("5 s stuck: stalled");
         assert!(
             msg.starts_with("the drive sticks: since t = 1.000 s"),
+            "{msg}"
+        );
+        assert!(
+            msg.contains("friction holding 10.0 % of its tension (segments 9.000 to 10.000 N)"),
             "{msg}"
         );
         // each of these restarts the window
