@@ -159,8 +159,7 @@ struct GenerateArgs {
     /// mast, ring: damping of the compliant latches (N s/m; needs --latch-stiffness).
     #[arg(long, allow_negative_numbers = true)]
     latch_damping: Option<f64>,
-    /// ring (bay-by-bay): stiffness of the compliant gears at the outer posts (N/m; default 100,
-    /// 1000 above 18 sides).
+    /// ring (bay-by-bay): stiffness of the compliant gears at the outer posts (N/m; default 1000).
     #[arg(long, allow_negative_numbers = true)]
     gear_stiffness: Option<f64>,
     /// ring (bay-by-bay): damping of the gears (N s/m; default 5).

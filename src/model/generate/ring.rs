@@ -120,7 +120,7 @@ impl Default for RingParams {
             bay_by_bay: false,
             frame_shear_deg: 20.0,
             gear: super::LatchParams {
-                stiffness_n_per_m: 100.0,
+                stiffness_n_per_m: 1000.0,
                 damping_n_s_per_m: 5.0,
             },
             stroke_stop: None,
@@ -166,7 +166,7 @@ impl RingParams {
     /// c_o (1 - sin(pi/n)) / (1 + sin(pi/n)) (to 0.1 mm, as the paper prints
     /// its chords; the paper's 0.6167 m is the rule at 18 sides), stroke stops
     /// of 1e4 N/m and 50 N s/m at every sleeve's stroke end (no bay folds the
-    /// wrong way) and gears of 1000 N/m.
+    /// wrong way).
     pub fn bay_by_bay_sized(sides: usize) -> Self {
         let d = RingParams {
             sides,
@@ -182,10 +182,6 @@ impl RingParams {
                 stiffness_n_per_m: 1e4,
                 damping_n_s_per_m: 50.0,
             }),
-            gear: super::LatchParams {
-                stiffness_n_per_m: 1000.0,
-                ..d.gear
-            },
             ..d
         }
     }
