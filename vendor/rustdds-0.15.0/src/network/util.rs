@@ -52,6 +52,7 @@ pub(crate) struct IfAddr {
 /// This is infallible in practice (netdev returns an empty list rather than an
 /// error), but the signature is kept as `io::Result` for API compatibility with
 /// the previous per-platform implementations.
+#[cfg(not(unix))]
 fn enumerate_interfaces() -> io::Result<Vec<IfAddr>> {
   let mut result = Vec::new();
 
@@ -84,6 +85,55 @@ fn enumerate_interfaces() -> io::Result<Vec<IfAddr>> {
     }
   }
 
+  Ok(result)
+}
+
+// truss-deploy patch (vendor/PATCHES.md, P7): on Unix the interfaces come
+// from getifaddrs(3) through nix instead of netdev (whose netlink crates were
+// a tenth of a fresh build); netdev stays the back end elsewhere.
+/// Unix: `getifaddrs(3)` through nix, one entry per assigned IP; the MTU from
+/// `/sys/class/net/<name>/mtu` where the OS has it (Linux), else unknown.
+#[cfg(unix)]
+fn enumerate_interfaces() -> io::Result<Vec<IfAddr>> {
+  use nix::{
+    ifaddrs::getifaddrs,
+    net::if_::{if_nametoindex, InterfaceFlags},
+  };
+  let mut result = Vec::new();
+  for ifa in getifaddrs().map_err(io::Error::from)? {
+    let Some(addr) = ifa.address else { continue };
+    let index = if_nametoindex(ifa.interface_name.as_str()).unwrap_or(0);
+    let is_loopback = ifa.flags.contains(InterfaceFlags::IFF_LOOPBACK);
+    let is_multicast = ifa.flags.contains(InterfaceFlags::IFF_MULTICAST);
+    let mtu = std::fs::read_to_string(format!("/sys/class/net/{}/mtu", ifa.interface_name))
+      .ok()
+      .and_then(|t| t.trim().parse().ok());
+    if let Some(v4) = addr.as_sockaddr_in() {
+      let netmask = ifa
+        .netmask
+        .as_ref()
+        .and_then(|m| m.as_sockaddr_in())
+        .map(|m| m.ip());
+      result.push(IfAddr {
+        ip: IpAddr::V4(v4.ip()),
+        index,
+        is_loopback,
+        is_multicast,
+        netmask,
+        mtu,
+      });
+    } else if let Some(v6) = addr.as_sockaddr_in6() {
+      result.push(IfAddr {
+        ip: IpAddr::V6(v6.ip()),
+        index,
+        is_loopback,
+        is_multicast,
+        // IPv4-only subnet matching for now; IPv6 peers fall back to default.
+        netmask: None,
+        mtu,
+      });
+    }
+  }
   Ok(result)
 }
 
