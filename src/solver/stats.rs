@@ -35,6 +35,10 @@ pub struct SolverStats {
     /// (conjugate gradients / Richardson; 0 for the dense backend).
     pub solves: u64,
     pub solve_iterations: u64,
+    /// Numeric factorizations made inside solves (the compliant solves of
+    /// elastic members factor S + D there), and solves served by a kept one.
+    pub solve_factorizations: u64,
+    pub solve_factorizations_reused: u64,
     pub fallbacks: Fallbacks,
     /// Latch root searches started, and the trial steps they computed.
     pub latch_searches: u64,
@@ -183,7 +187,7 @@ impl SolverStats {
         format!(
             "{} steps, {} sub-steps, {} Newmark steps ({:.2} iterations each), \
              {} Newton steps ({} GMRES iterations, {} backtracks), \
-             {} factorizations ({} reused, {} probes), {} solves ({:.2} iterations each), \
+             {} factorizations ({} reused, {} probes), {} solves ({:.2} iterations each; {} factored inside, {} with a kept one), \
              {} latch searches ({} trial steps), {} latches ({} within a capture range, {} at their lock once rigid), {} sub-steps cut at contacts, {} halved on their ledger's budget; fallbacks: {} halvings ({} at blend entries, {} for energy, {} accepted making energy, {} over their ledger's budget at the shortest), \
              {} Newton switches ({} failed), {} Newmark min-norm, {} lagged friction, {} projection min-norm, {} velocity min-norm, \
              {} refactored, {} re-probed, {} least-squares, {} unconverged solves, \
@@ -203,6 +207,8 @@ impl SolverStats {
             self.probes,
             self.solves,
             self.solve_iterations as f64 / self.solves.max(1) as f64,
+            self.solve_factorizations,
+            self.solve_factorizations_reused,
             self.latch_searches,
             self.latch_search_steps,
             self.latches,

@@ -157,7 +157,10 @@ impl ConstraintSolver for DenseNullSpace {
             a[i] += g[i];
         }
         lambda[..m].copy_from_slice(l.as_slice());
-        Ok(SolveReport::DIRECT)
+        Ok(SolveReport {
+            factorizations: 1,
+            ..SolveReport::DIRECT
+        })
     }
 
     fn correction(

@@ -58,6 +58,11 @@ pub struct SolveReport {
     pub reprobed: bool,
     /// The right-hand side was inconsistent: answered in least squares.
     pub least_squares: bool,
+    /// Numeric factorizations the solve made itself (compliant solves
+    /// factor S + D inside the solve when the kept one no longer serves),
+    /// and whether it solved with a kept one.
+    pub factorizations: u32,
+    pub reused_factorization: bool,
 }
 
 impl SolveReport {
@@ -69,6 +74,8 @@ impl SolveReport {
         refactored: false,
         reprobed: false,
         least_squares: false,
+        factorizations: 0,
+        reused_factorization: false,
     };
 }
 

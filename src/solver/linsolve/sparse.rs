@@ -1228,18 +1228,21 @@ impl ConstraintSolver for SparseSchur {
                 let (dmax, amax) = max_abs_diff(&jac.values, &cs.jac_values);
                 dmax <= COMPLIANT_REUSE_TOL * amax
             };
+        let mut report = SolveReport::default();
         if reuse {
             self.reused_factorizations += 1;
+            report.reused_factorization = true;
         } else {
             self.refactor_compliant(jac, inv_mass, d)?;
+            report.factorizations += 1;
         }
         self.rhs_keep.copy_from_slice(&self.res);
-        let mut report = SolveReport::default();
         let mut converged = self.compliant_pcg(jac, inv_mass, d);
         let mut iterations = self.last_iterations;
         if reuse && (!converged || self.last_iterations > REUSE_MAX_ITERATIONS) {
             self.refactor_compliant(jac, inv_mass, d)?;
             report.refactored = true;
+            report.factorizations += 1;
             self.res.copy_from_slice(&self.rhs_keep);
             converged = self.compliant_pcg(jac, inv_mass, d);
             iterations += self.last_iterations;

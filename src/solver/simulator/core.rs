@@ -265,6 +265,8 @@ impl Core {
         let s = &mut self.stats;
         s.solves += 1;
         s.solve_iterations += r.iterations as u64;
+        s.solve_factorizations += u64::from(r.factorizations);
+        s.solve_factorizations_reused += u64::from(r.reused_factorization);
         let f = &mut s.fallbacks;
         f.solve_refactored += u64::from(r.refactored);
         f.solve_reprobed += u64::from(r.reprobed);
