@@ -503,7 +503,7 @@ impl StickWatch {
         }
         // The friction's share of the pull: the pulleys hold the drop of
         // tension along the cable, (T_max - T_min) / T_max; the rest of the
-        // pull the gears, members and damping balance. A small share means
+        // pull the gears, members, compliant latches and damping balance. A small share means
         // the truss would stop there without friction too.
         let (t_min_n, t_max_n) = with_friction()
             .flat_map(|(_, e)| e.segment_tension_n.iter().copied())
@@ -520,7 +520,7 @@ impl StickWatch {
              speed (now |s| <= {sliding_max:.1e} m/s, slip speed {slip_max:.1e} m/s) and no joint \
              moved faster than {vmax:.1e} m/s: the drive's pull is in balance with what resists \
              it, the pulleys' friction holding {share:.1} % of its tension (segments \
-             {t_min_n:.3} to {t_max_n:.3} N) and the gears, members and damping the rest, so the \
+             {t_min_n:.3} to {t_max_n:.3} N) and the gears, members, latches and damping the rest, so the \
              truss only creeps ([checks] stick_confirm_s = {}); {}",
             self.window_s,
             unlatched_summary(model, state)

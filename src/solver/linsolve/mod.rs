@@ -60,7 +60,7 @@ pub struct SolveReport {
     pub least_squares: bool,
     /// Numeric factorizations the solve made itself (compliant solves
     /// factor S + D inside the solve when the kept one no longer serves),
-    /// and whether it solved with a kept one.
+    /// and whether a kept one served it (false when it was redone).
     pub factorizations: u32,
     pub reused_factorization: bool,
 }

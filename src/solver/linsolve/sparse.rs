@@ -1242,6 +1242,7 @@ impl ConstraintSolver for SparseSchur {
         if reuse && (!converged || self.last_iterations > REUSE_MAX_ITERATIONS) {
             self.refactor_compliant(jac, inv_mass, d)?;
             report.refactored = true;
+            report.reused_factorization = false;
             report.factorizations += 1;
             self.res.copy_from_slice(&self.rhs_keep);
             converged = self.compliant_pcg(jac, inv_mass, d);
