@@ -6,8 +6,9 @@
 
 use super::Failure;
 use std::fs::File;
-use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
+
+pub use crate::files::{temp_path, write_atomic, AtomicFile};
 
 /// The path as the file system would resolve it: the canonical parent
 /// directory joined with the file name (the file itself need not exist).
@@ -77,80 +78,4 @@ pub fn check_outputs(inputs: &[&Path], outputs: &[(&str, &Path)]) -> Result<(), 
         seen.push((r, option));
     }
     Ok(())
-}
-
-/// A temporary sibling of `target`: `.NAME.PID.TAG`, hidden, same directory (so
-/// the rename is atomic).
-pub fn temp_path(target: &Path, tag: &str) -> PathBuf {
-    let name = target
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
-    target.with_file_name(format!(".{name}.{}.{tag}", std::process::id()))
-}
-
-/// A file being written: a buffered temporary file that becomes `target` on
-/// [`AtomicFile::commit`] (dropped without commit, it is removed).
-pub struct AtomicFile {
-    target: PathBuf,
-    temp: PathBuf,
-    out: Option<BufWriter<File>>,
-}
-
-impl AtomicFile {
-    pub fn create(target: &Path) -> Result<AtomicFile, String> {
-        let temp = temp_path(target, "part");
-        let f =
-            File::create(&temp).map_err(|e| format!("cannot write {}: {e}", target.display()))?;
-        Ok(AtomicFile {
-            target: target.to_path_buf(),
-            temp,
-            out: Some(BufWriter::new(f)),
-        })
-    }
-
-    pub fn writer(&mut self) -> &mut BufWriter<File> {
-        self.out.as_mut().expect("an uncommitted file has a writer")
-    }
-
-    /// Flushes, syncs and renames the temporary file onto the target.
-    pub fn commit(self) -> Result<(), String> {
-        self.finish(true)
-    }
-
-    fn finish(mut self, sync: bool) -> Result<(), String> {
-        let target = self.target.display().to_string();
-        let out = self.out.take().expect("committed once");
-        let file = out
-            .into_inner()
-            .map_err(|e| format!("cannot write {target}: {}", e.error()))?;
-        (if sync { file.sync_all() } else { Ok(()) })
-            .and_then(|_| std::fs::rename(&self.temp, &self.target))
-            .map_err(|e| format!("cannot write {target}: {e}"))
-    }
-}
-
-impl Drop for AtomicFile {
-    fn drop(&mut self) {
-        if self.out.take().is_some() {
-            let _ = std::fs::remove_file(&self.temp);
-        }
-    }
-}
-
-/// Writes `bytes` to `path` atomically.
-pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), String> {
-    write_atomic_with(path, bytes, true)
-}
-
-/// Writes `bytes` to `path` atomically, synced to disk or not: unsynced,
-/// the file survives the end of the process however it ends (SIGKILL too),
-/// not a crash of the machine (for the many small rows of a sweep, whose
-/// fsyncs would dominate its time).
-pub fn write_atomic_with(path: &Path, bytes: &[u8], sync: bool) -> Result<(), String> {
-    let mut f = AtomicFile::create(path)?;
-    f.writer()
-        .write_all(bytes)
-        .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
-    f.finish(sync)
 }

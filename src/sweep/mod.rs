@@ -103,13 +103,13 @@ pub fn meta(s: &Sweep, file: &Path) -> Meta {
 }
 
 fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), SweepFailure> {
-    crate::cli::output::write_atomic(path, bytes).map_err(failed)
+    crate::files::write_atomic(path, bytes).map_err(failed)
 }
 
 /// A sample's row: atomic (a temporary file renamed), not synced, so that a
 /// killed sweep keeps every finished row without paying an fsync per sample.
 fn write_row(path: &Path, bytes: &[u8]) -> Result<(), SweepFailure> {
-    crate::cli::output::write_atomic_with(path, bytes, false).map_err(failed)
+    crate::files::write_atomic_with(path, bytes, false).map_err(failed)
 }
 
 pub fn sample_path(dir: &Path, index: u64) -> PathBuf {

@@ -929,7 +929,7 @@ mod tests {
     #[test]
     fn fixed_base_keys_reach_every_sample() {
         let model = std::fs::read_to_string(
-            Path::new(env!("CARGO_MANIFEST_DIR")).join("models/pantograph_mast.toml"),
+            Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models/pantograph_mast.toml"),
         )
         .unwrap();
         let generator = move |_: &str, _: &[(String, Option<String>)]| Ok(model.clone());
