@@ -4,13 +4,15 @@
 //! exact latch events and drift-free projection); [`model`] reads, validates and
 //! generates model files; [`run`] runs one model to deployment (for `simulate` and
 //! every sweep sample); [`sweep`] runs many samples of a model with scattered parameters;
-//! [`cli`] is the command line and [`node`] the ROS 2 node. The first five are
-//! the crate `truss-deploy-core` (`src/core.rs`), re-exported here.
+//! [`cli`] is the command line and [`node`] the ROS 2 node. `solver`, `model`,
+//! `run` and `files` are the crate `truss-deploy-core` (`src/core.rs`), `sweep`
+//! the crate `truss-deploy-sweep` (`src/sweep/mod.rs`), re-exported here.
 
 #[macro_use]
 mod say;
 
-pub use truss_deploy_core::{files, model, run, solver, sweep};
+pub use truss_deploy_core::{files, model, run, solver};
+pub use truss_deploy_sweep as sweep;
 
 pub mod cli;
 #[cfg(feature = "ros")]

@@ -8,6 +8,12 @@
 //! - `samples/NNNNNNNNN.json`: each finished sample's row (written atomically);
 //! - `parts/part-I-of-N.jsonl`: a shard's rows (`--shard I/N`);
 //! - `results.parquet`, `summary.json`: all rows, and their statistics.
+//!
+//! Built as the crate `truss-deploy-sweep` (`crates/sweep/Cargo.toml`); the
+//! `truss_deploy` library re-exports it as `truss_deploy::sweep`.
+
+// the core's modules under the paths the sweep's files use (`crate::model`, ...)
+use truss_deploy_core::{files, model, run, solver};
 
 pub mod parquet_out;
 pub mod rng;
