@@ -62,6 +62,10 @@ pub struct SolverStats {
     /// their transients.
     pub compliant_latches: u64,
     pub transient_substeps: u64,
+    /// Elastic members: compliant latches whose transient ended because
+    /// the structure could no longer move along them (other latches turned
+    /// rigid or latched as rows): they turned rigid as their rows at once.
+    pub transients_immobile: u64,
     /// Speed-controlled motors released from their speed (tension beyond
     /// its limit or below zero, or a rigid latch), and engaged at it.
     pub motor_releases: u64,

@@ -15,7 +15,13 @@
 //! after `latch_max_periods`) it turns rigid: the joints move back onto the
 //! lock length (by its deflection T/k), the velocities onto the rigid
 //! manifold, and its spring energy with the drive's work over that move go
-//! with the latch loss.
+//! with the latch loss. With elastic members nothing moves: the sleeve's row
+//! has compliance c = L/EA + 1/k and holds the deflection g, force g / c.
+//! There a compliant latch the structure cannot move along (no transient:
+//! w = 0) latches at once as that row, and engaged latches that other
+//! latches leave immobile turn into it (`retire_immobile_transients`): the
+//! pin is in and the spring in series holds the sleeve, whatever the drive
+//! does meanwhile.
 
 use super::core::Core;
 use super::events::gap;
@@ -130,10 +136,25 @@ impl Simulator {
                 tr.period_s = one_mode_s;
             }
         }
-        // A compliant latch the structure cannot move along waits for the
-        // others' transients (its row would be redundant to first order with
-        // theirs meanwhile); with none engaging it latches rigid now.
-        if self.state.transients.is_empty() {
+        // A compliant latch the structure cannot move along has no
+        // transient of its own. With elastic members it latches now as its
+        // row, the tube in series with the latch spring (compliance
+        // c = L/EA + 1/k, `latched_sleeve_compliance`): the row holds the
+        // sleeve at its lock length with the latch's stiffness whatever the
+        // others' transients do, as the engaged pin does. Rigid members: it
+        // waits for the others' transients (its rigid row would be redundant
+        // to first order with theirs meanwhile); with none engaging it
+        // latches rigid now.
+        if self.settings.elastic_members && !immobile.is_empty() {
+            self.latch_rigid(&immobile, &|_| t)?;
+            self.core.stats.latches += immobile.len() as u64;
+            self.retire_immobile_transients()?;
+            if !self.state.transients.is_empty() {
+                self.core.prev_h = None;
+                self.restart_accelerations()?;
+            }
+            self.track_latch_rows();
+        } else if self.state.transients.is_empty() {
             self.core.stats.fallbacks.latch_without_compliance += immobile.len() as u64;
             self.latch_rigid(&immobile, &|_| t)?;
         } else {
@@ -281,6 +302,39 @@ impl Simulator {
                 .map(|l| l.time_s)
                 .fold(f64::NEG_INFINITY, f64::max);
             s.deploy_time_s = Some(s.deploy_time_s.map_or(last, |t| t.max(last)));
+        }
+    }
+
+    /// Elastic members: the compliant latches that latched as their row
+    /// (no transient: the structure could not move along them) carry the
+    /// row's force, T = -lambda with Phi + tau Phidot + c lambda = 0,
+    /// c = L/EA + 1/k: the force through tube and latch in series. Their
+    /// event's peak force is the largest |T| at the state since they
+    /// latched (called after every accepted sub-step and at their latch).
+    pub(super) fn track_latch_rows(&mut self) {
+        if !self.settings.elastic_members {
+            return;
+        }
+        let (model, jac, s) = (&self.model, &self.core.jac, &mut self.state);
+        for ev in &mut s.locks {
+            let e = ev.element;
+            if ev.rigid_at_s.is_some() || !s.locked[e] || model.elements[e].latch_spring().is_none()
+            {
+                continue;
+            }
+            let Some(f) = jac
+                .blocks
+                .iter()
+                .find(|b| b.element == e)
+                .and_then(|b| s.lambda.get(b.row0))
+                .map(|l| l.abs())
+            else {
+                continue;
+            };
+            if ev.peak_force_n.map_or(true, |p| f > p) {
+                ev.peak_force_n = Some(f);
+                ev.time_of_peak_s = Some(s.t_s);
+            }
         }
     }
 
@@ -438,6 +492,25 @@ impl Simulator {
         if due.is_empty() {
             return Ok(0);
         }
+        self.turn_rigid(&due, t)?;
+        let mut turned = due.len();
+        // Elastic members: the latches turning rigid may leave the structure
+        // unable to move along those still engaged; their transients end
+        // there, as their rows (`retire_immobile_transients`).
+        turned += self.retire_immobile_transients()?;
+        // (the waiting latches' events first: they may have reached their
+        // lock after the last engagement)
+        let waited = self.latch_waiting()?;
+        self.latch_at_lock_once_rigid(&[], &|_| t)?;
+        self.stamp_deploy_time();
+        Ok(turned + waited)
+    }
+
+    /// Turns the engaged compliant latches `due` rigid at the state (time
+    /// t): their force impulse and dissipation, and the elastic energy
+    /// 1/2 k g^2 their springs release, go with their events; the
+    /// velocities jump onto the new constraint set (`lock_rigidly`).
+    fn turn_rigid(&mut self, due: &[usize], t: f64) -> Result<(), SolverError> {
         // per latch: the force impulse and dissipation of its transient, and
         // the elastic energy 1/2 k g^2 it releases turning rigid
         let mut settled: Vec<(usize, f64, f64, f64)> = Vec::with_capacity(due.len());
@@ -469,7 +542,7 @@ impl Simulator {
             .transients
             .retain(|tr| !due.contains(&tr.element));
         self.core.springs.retain(|s| !due.contains(&s.0));
-        let jumps = self.lock_rigidly(&due)?;
+        let jumps = self.lock_rigidly(due)?;
         for ((event, sign, impulse_ns, lost_j), (impulse, lost, _)) in
             settled.into_iter().zip(jumps)
         {
@@ -480,12 +553,61 @@ impl Simulator {
             ev.energy_lost_j = lost_j + lost;
             ev.rigid_at_s = Some(t);
         }
-        // (the waiting latches' events first: they may have reached their
-        // lock after the last engagement)
-        let waited = self.latch_waiting()?;
-        self.latch_at_lock_once_rigid(&[], &|_| t)?;
-        self.stamp_deploy_time();
-        Ok(due.len() + waited)
+        Ok(())
+    }
+
+    /// Elastic members, with compliant latches engaged: those the structure
+    /// can no longer move along (inverse effective mass w at the state
+    /// below `latch_immobile_rel` of its free value, as at `engage`), since
+    /// other latches turned rigid or latched as rows, have no mode left to
+    /// settle in (their period 2 pi / sqrt(k w) has grown without bound):
+    /// they turn rigid now as their rows, c = L/EA + 1/k, which hold the
+    /// sleeve with the latch spring in series. The others' w and period are
+    /// those of the structure as it now is. Repeated until none turns (each
+    /// row may immobilize others). Returns how many turned.
+    pub(super) fn retire_immobile_transients(&mut self) -> Result<usize, SolverError> {
+        if !self.settings.elastic_members {
+            return Ok(0);
+        }
+        let mut turned = 0;
+        while !self.state.transients.is_empty() {
+            // (at the factorization of the state's constraint set that
+            // `lock_rigidly` or the accepted step left)
+            self.core.x.copy_from_slice(&self.state.x);
+            let mut immobile = Vec::new();
+            for i in 0..self.state.transients.len() {
+                let e = self.state.transients[i].element;
+                let w = self.core.inverse_effective_mass(&self.model, e)?;
+                let joints = self.model.elements[e].joints();
+                let w_free =
+                    self.model.inv_mass[3 * joints[0]] + self.model.inv_mass[3 * joints[1]];
+                let tr = &mut self.state.transients[i];
+                let period_s = 2.0 * std::f64::consts::PI / (tr.stiffness_n_per_m * w).sqrt();
+                if w <= self.settings.latch_immobile_rel * w_free || !period_s.is_finite() {
+                    immobile.push(e);
+                } else {
+                    tr.inv_mass_eff_per_kg = w;
+                    tr.period_s = period_s;
+                }
+            }
+            // (the solves above used the core's accelerations and
+            // multipliers as scratch: the state's again)
+            self.core.a.copy_from_slice(&self.state.a);
+            self.core.lambda.clone_from(&self.state.lambda);
+            if immobile.is_empty() {
+                break;
+            }
+            self.core.stats.transients_immobile += immobile.len() as u64;
+            self.turn_rigid(&immobile, self.state.t_s)?;
+            turned += immobile.len();
+        }
+        if !self.state.transients.is_empty() && self.one_spring_mode() {
+            let one_mode_s = self.spring_mode_period_s();
+            for tr in &mut self.state.transients {
+                tr.period_s = one_mode_s;
+            }
+        }
+        Ok(turned)
     }
 
     /// Makes `elements` rigid members (locked) at the current state: the

@@ -85,6 +85,7 @@ impl Simulator {
             let ev = &mut s.locks[tr.event];
             track_transient(m, tr, ev, t0, h, (&s.x, &s.v, &s.a), settle_rel);
         }
+        self.track_latch_rows();
     }
 }
 
