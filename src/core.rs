@@ -9,9 +9,6 @@
 //! every sweep sample); [`files`] writes files atomically. Sweeps are the crate
 //! `truss-deploy-sweep` (src/sweep/).
 
-#[macro_use]
-mod say;
-
 pub mod files;
 pub mod model;
 pub mod run;

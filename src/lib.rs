@@ -8,8 +8,23 @@
 //! `run` and `files` are the crate `truss-deploy-core` (`src/core.rs`), `sweep`
 //! the crate `truss-deploy-sweep` (`src/sweep/mod.rs`), re-exported here.
 
-#[macro_use]
-mod say;
+/// println! that ignores a failed write (a closed pipe, a full disk) instead
+/// of panicking: the exit status and the files written still tell.
+macro_rules! say {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout(), $($t)*);
+    }};
+}
+
+/// eprintln! that ignores a failed write, as [`say!`].
+#[allow(unused_macros)]
+macro_rules! tell {
+    ($($t:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stderr(), $($t)*);
+    }};
+}
 
 pub use truss_deploy_core::{files, model, run, solver};
 pub use truss_deploy_sweep as sweep;

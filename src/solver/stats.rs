@@ -43,7 +43,9 @@ pub struct SolverStats {
     /// Latch root searches started, and the trial steps they computed.
     pub latch_searches: u64,
     pub latch_search_steps: u64,
-    /// Sleeves latched (rigid, or compliant latches engaging).
+    /// Sleeves latched (rigid, or compliant latches engaging; with elastic
+    /// members also compliant latches the structure cannot move along,
+    /// which latch at once as their row, L/EA + 1/k).
     pub latches: u64,
     /// ... of which latched at a step's end within their latch's capture
     /// range (`capture_range_m` of a sleeve: a chamfered latch pin).

@@ -149,6 +149,8 @@ impl Simulator {
             self.latch_rigid(&immobile, &|_| t)?;
             self.core.stats.latches += immobile.len() as u64;
             self.retire_immobile_transients()?;
+            // (the transients it retires may be the last open sleeves)
+            self.stamp_deploy_time();
             if !self.state.transients.is_empty() {
                 self.core.prev_h = None;
                 self.restart_accelerations()?;
