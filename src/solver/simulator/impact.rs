@@ -346,6 +346,24 @@ impl Simulator {
         engaging(&self.state, &self.core, e)
     }
 
+    /// The mode a compliant latch of stiffness k across sleeve `e` makes
+    /// with the structure at the state: the inverse effective mass w along
+    /// the sleeve (every rigid constraint holding, at the current
+    /// factorization) and the period 2 pi / sqrt(k w). None where the
+    /// structure cannot move along the sleeve: w below `latch_immobile_rel`
+    /// of its free two-joint value 1/m_a + 1/m_b (the spring would never
+    /// deflect nor settle).
+    fn latch_mode(&mut self, e: usize, k: f64) -> Result<Option<(f64, f64)>, SolverError> {
+        let model = &self.model;
+        self.core.x.copy_from_slice(&self.state.x);
+        let w = self.core.inverse_effective_mass(model, e)?;
+        let period_s = 2.0 * std::f64::consts::PI / (k * w).sqrt();
+        let [ja, jb] = [model.elements[e].joints()[0], model.elements[e].joints()[1]];
+        let w_free = model.inv_mass[3 * ja] + model.inv_mass[3 * jb];
+        let mobile = w > self.settings.latch_immobile_rel * w_free && period_s.is_finite();
+        Ok(mobile.then_some((w, period_s)))
+    }
+
     /// A compliant latch engages at the state: its event (peak to come) and
     /// transient, with the structure's effective mass along the sleeve (at
     /// the factorization the accepted step left, every rigid constraint
@@ -361,14 +379,10 @@ impl Simulator {
         let Some((_, rate, accel)) = sleeve_motion(model, e, &self.state) else {
             return Ok(false);
         };
-        self.core.x.copy_from_slice(&self.state.x);
-        let w = self.core.inverse_effective_mass(model, e)?;
-        let period_s = 2.0 * std::f64::consts::PI / (k * w).sqrt();
-        let [ja, jb] = [el.joints()[0], el.joints()[1]];
-        let w_free = model.inv_mass[3 * ja] + model.inv_mass[3 * jb];
-        if w <= self.settings.latch_immobile_rel * w_free || !period_s.is_finite() {
+        let Some((w, period_s)) = self.latch_mode(e, k)? else {
             return Ok(false);
-        }
+        };
+        let el = &self.model.elements[e];
         let t = self.state.t_s;
         self.state.locks.push(LockEvent {
             element: e,
@@ -575,21 +589,19 @@ impl Simulator {
         while !self.state.transients.is_empty() {
             // (at the factorization of the state's constraint set that
             // `lock_rigidly` or the accepted step left)
-            self.core.x.copy_from_slice(&self.state.x);
             let mut immobile = Vec::new();
             for i in 0..self.state.transients.len() {
-                let e = self.state.transients[i].element;
-                let w = self.core.inverse_effective_mass(&self.model, e)?;
-                let joints = self.model.elements[e].joints();
-                let w_free =
-                    self.model.inv_mass[3 * joints[0]] + self.model.inv_mass[3 * joints[1]];
-                let tr = &mut self.state.transients[i];
-                let period_s = 2.0 * std::f64::consts::PI / (tr.stiffness_n_per_m * w).sqrt();
-                if w <= self.settings.latch_immobile_rel * w_free || !period_s.is_finite() {
-                    immobile.push(e);
-                } else {
-                    tr.inv_mass_eff_per_kg = w;
-                    tr.period_s = period_s;
+                let (e, k) = {
+                    let tr = &self.state.transients[i];
+                    (tr.element, tr.stiffness_n_per_m)
+                };
+                match self.latch_mode(e, k)? {
+                    None => immobile.push(e),
+                    Some((w, period_s)) => {
+                        let tr = &mut self.state.transients[i];
+                        tr.inv_mass_eff_per_kg = w;
+                        tr.period_s = period_s;
+                    }
                 }
             }
             // (the solves above used the core's accelerations and
