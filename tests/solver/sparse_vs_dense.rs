@@ -331,6 +331,33 @@ fn compare_single(model: &Model, x: &[f64], locked: &[bool], seed: u64) {
                 "{dyn_err:e} {con_err:e}"
             );
         }
+        // The Newton direction's operator: one solve with the kept
+        // factorization, no refinement. At the Jacobian it was made at, the
+        // answer is the dense one to within the factorization's roundoff
+        // (what a direction needs: the line search judges the iterates on
+        // the exact residual), and its accelerations are M^-1 (q + A^T
+        // lambda) exactly.
+        let (mut ad, mut ld) = (vec![0.0; n], vec![0.0; m]);
+        let (mut ar, mut lr) = (vec![0.0; n], vec![0.0; m]);
+        dense
+            .compliant_accelerations(&jac, &model.inv_mass, &d, &q, &c_far, &mut ad, &mut ld)
+            .unwrap();
+        let report = sparse
+            .compliant_response(&jac, &model.inv_mass, &d, &q, &c_far, &mut ar, &mut lr)
+            .unwrap();
+        assert!(
+            report.reused_factorization && report.factorizations == 0 && report.iterations == 1,
+            "{report:?}"
+        );
+        let ea = max_diff(&ad, &ar) / max_abs(&ad);
+        let f = forces(&lr);
+        let dyn_err = (0..n)
+            .map(|i| (ar[i] / model.inv_mass[i] - q[i] - f[i]).abs())
+            .fold(0.0f64, f64::max)
+            / max_abs(&q);
+        eprintln!("compliant response: rel. diff accelerations {ea:.1e}; equations {dyn_err:.1e}");
+        assert!(ea <= 1e-8, "compliant response differs by {ea:e}");
+        assert!(dyn_err <= 1e-10, "{dyn_err:e}");
     }
     {
         let (mut dd, mut md) = (vec![0.0; n], vec![0.0; m]);

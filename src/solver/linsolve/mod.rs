@@ -121,6 +121,26 @@ pub trait ConstraintSolver: Send {
         a: &mut [f64],
         lambda: &mut [f64],
     ) -> Result<SolveReport, SolverError>;
+    /// The system of `compliant_accelerations` solved once with the kept
+    /// factorization of S + D, without refinement: the operator of a Newton
+    /// direction (stage `newton`), where an error of the order of the
+    /// factorization's age (Jacobian entries within `COMPLIANT_REUSE_TOL`)
+    /// only bends the direction; the line search judges every iterate on
+    /// the exact residual. Backends without a kept factorization solve
+    /// exactly.
+    #[allow(clippy::too_many_arguments)]
+    fn compliant_response(
+        &mut self,
+        jac: &Jacobian,
+        inv_mass: &[f64],
+        d: &[f64],
+        q: &[f64],
+        c: &[f64],
+        a: &mut [f64],
+        lambda: &mut [f64],
+    ) -> Result<SolveReport, SolverError> {
+        self.compliant_accelerations(jac, inv_mass, d, q, c, a, lambda)
+    }
     /// dx = M^-1 A^T mu with mu = S^+ r (in the mode of the factorization).
     fn correction(
         &mut self,

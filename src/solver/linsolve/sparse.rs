@@ -408,6 +408,37 @@ impl SparseSchur {
         Ok(())
     }
 
+    /// A factorization of S + D for a compliant solve: the kept one while
+    /// D and the masses are the same, its solves stayed short and no
+    /// Jacobian entry has moved by more than `COMPLIANT_REUSE_TOL`, else a
+    /// new one. Returns whether the kept one serves, and the report so far.
+    fn ensure_compliant_factorization(
+        &mut self,
+        jac: &Jacobian,
+        inv_mass: &[f64],
+        d: &[f64],
+    ) -> Result<(bool, SolveReport), SolverError> {
+        self.ensure_structure(jac)?;
+        let cs = &self.compliant;
+        let reuse = cs.valid
+            && cs.worst_iterations <= REUSE_MAX_ITERATIONS
+            && cs.d == d
+            && cs.inv_mass == inv_mass
+            && {
+                let (dmax, amax) = max_abs_diff(&jac.values, &cs.jac_values);
+                dmax <= COMPLIANT_REUSE_TOL * amax
+            };
+        let mut report = SolveReport::default();
+        if reuse {
+            self.reused_factorizations += 1;
+            report.reused_factorization = true;
+        } else {
+            self.refactor_compliant(jac, inv_mass, d)?;
+            report.factorizations += 1;
+        }
+        Ok((reuse, report))
+    }
+
     /// Preconditioned conjugate gradients on (S + D) lambda = rhs (rhs in
     /// `self.res`), preconditioned by the compliant factorization: lambda in
     /// `self.lam`, g = M^-1 A^T lambda in `self.g`. Stops when the update of
@@ -1218,24 +1249,7 @@ impl ConstraintSolver for SparseSchur {
         if !self.unconstrained_part(jac, inv_mass, q, c, a) {
             return Ok(SolveReport::DIRECT);
         }
-        self.ensure_structure(jac)?;
-        let cs = &self.compliant;
-        let reuse = cs.valid
-            && cs.worst_iterations <= REUSE_MAX_ITERATIONS
-            && cs.d == d
-            && cs.inv_mass == inv_mass
-            && {
-                let (dmax, amax) = max_abs_diff(&jac.values, &cs.jac_values);
-                dmax <= COMPLIANT_REUSE_TOL * amax
-            };
-        let mut report = SolveReport::default();
-        if reuse {
-            self.reused_factorizations += 1;
-            report.reused_factorization = true;
-        } else {
-            self.refactor_compliant(jac, inv_mass, d)?;
-            report.factorizations += 1;
-        }
+        let (reuse, mut report) = self.ensure_compliant_factorization(jac, inv_mass, d)?;
         self.rhs_keep.copy_from_slice(&self.res);
         let mut converged = self.compliant_pcg(jac, inv_mass, d);
         let mut iterations = self.last_iterations;
@@ -1255,6 +1269,47 @@ impl ConstraintSolver for SparseSchur {
         self.constrained_part(a, lambda);
         report.iterations = iterations;
         report.converged = converged;
+        Ok(report)
+    }
+
+    fn compliant_response(
+        &mut self,
+        jac: &Jacobian,
+        inv_mass: &[f64],
+        d: &[f64],
+        q: &[f64],
+        c: &[f64],
+        a: &mut [f64],
+        lambda: &mut [f64],
+    ) -> Result<SolveReport, SolverError> {
+        // lambda = (L D L^T)^-1 (-c - A M^-1 Q) once, a = M^-1 (Q + A^T lambda).
+        if !self.unconstrained_part(jac, inv_mass, q, c, a) {
+            return Ok(SolveReport::DIRECT);
+        }
+        // (the kept factorization serves whatever the Jacobian's age: the
+        // Newton direction's operator is at the iterate the last solve
+        // factored or refined at)
+        self.ensure_structure(jac)?;
+        let cs = &self.compliant;
+        let mut report = SolveReport::default();
+        if cs.valid && cs.d == d && cs.inv_mass == inv_mass {
+            self.reused_factorizations += 1;
+            report.reused_factorization = true;
+        } else {
+            self.refactor_compliant(jac, inv_mass, d)?;
+            report.factorizations += 1;
+        }
+        self.lam.copy_from_slice(&self.res);
+        self.full.solve(&self.compliant.l_vals, &mut self.lam);
+        jac.mul_t(&self.lam, &mut self.g);
+        for (g, im) in self.g.iter_mut().zip(inv_mass) {
+            *g *= im;
+        }
+        self.solves += 1;
+        self.cg_iterations += 1;
+        self.constrained_part(a, lambda);
+        report.iterations = 1;
+        report.converged = true;
         Ok(report)
     }
 
