@@ -72,7 +72,10 @@ pub struct SolverSettings {
     /// Newton steps solve (I - G') d = G(A) - A by GMRES (each iteration one
     /// constrained solve; G' has the rank of the structure's free motions at
     /// most, so few are needed) until the residual is at most this fraction
-    /// of the right-hand side ...
+    /// of the right-hand side (an inexact Newton step: G' itself leaves out
+    /// the geometric terms, so the steps converge linearly whatever this is;
+    /// on the bundled ring 1e-3 took as many Newton steps as 1e-6 with 44 %
+    /// fewer GMRES iterations, 1e-2 more Newton steps) ...
     pub newmark_newton_krylov_tol_rel: f64,
     /// ... or for at most this many iterations.
     pub newmark_newton_krylov_max: usize,
@@ -257,7 +260,7 @@ impl Default for SolverSettings {
             newmark_stall_ratio: 0.9,
             newmark_stall_count: 4,
             newmark_newton_trigger: 0.5,
-            newmark_newton_krylov_tol_rel: 1e-6,
+            newmark_newton_krylov_tol_rel: 1e-3,
             newmark_newton_krylov_max: 10,
             newmark_newton_decrease: 1e-4,
             newmark_newton_min_step: 1e-6,
