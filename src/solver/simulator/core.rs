@@ -89,6 +89,8 @@ pub(super) struct Core {
     pub row_d: Vec<f64>,
     pub row_phi: Vec<f64>,
     pub row_rate: Vec<f64>,
+    /// The compliance of the rows that are not members (m/N).
+    pub rigid_compliance: f64,
     /// Set while solves are compliant: the step length they are scaled to,
     /// and whether they hold Phi + tau Phidot + c lambda = 0 at the Newmark
     /// positions (index 3) rather than at acceleration level.
@@ -153,6 +155,7 @@ impl Core {
             row_d: Vec::new(),
             row_phi: Vec::new(),
             row_rate: Vec::new(),
+            rigid_compliance: 0.0,
             compliant: None,
             relaxation_s: model.solver.member_relaxation_s,
             strain_trial_j: 0.0,
@@ -179,6 +182,7 @@ impl Core {
             }
         }
         let rigid = 1e-6 * model.stiffest_compliance_m_per_n;
+        self.rigid_compliance = rigid;
         self.row_member.clear();
         self.row_member
             .extend(self.row_compliance.iter().map(|c| c.is_finite()));
@@ -341,13 +345,43 @@ impl Core {
         lw.multipliers(model, &self.jac, &self.dx, &mut self.mu)
     }
 
-    /// Inverse effective mass of the structure along sleeve `e` at the
-    /// factored configuration (1/kg): the rate l'' of its length under a
-    /// unit pair of forces pulling its ends apart, with every active
-    /// constraint holding (one solve with Q = J_e^T, Adot Xdot = 0). A spring
-    /// of stiffness k across the sleeve then has the frequency sqrt(k w).
-    /// Uses `q`, `c`, `a`, `lambda` as scratch.
-    pub fn inverse_effective_mass(&mut self, model: &Model, e: usize) -> Result<f64, SolverError> {
+    /// Inverse effective mass of the structure along sleeve `e` at the trial
+    /// x (1/kg): the rate l'' of its length under a unit pair of forces
+    /// pulling its ends apart with every active constraint holding (one
+    /// solve with Q = J_e^T, Adot Xdot = 0),
+    ///
+    ///     w = J_e (M^-1 - M^-1 A^T S^+ A M^-1) J_e^T,   S = A M^-1 A^T.
+    ///
+    /// A spring of stiffness k across the sleeve then has the frequency
+    /// sqrt(k w) along the structure's mechanisms. Uses `q`, `c`, `a`,
+    /// `lambda` (and `row_d`) as scratch.
+    ///
+    /// Rigid members (`step_s` None): at the current factorization.
+    ///
+    /// Elastic members (`step_s` Some(h)): near the flat state S is nearly
+    /// singular (nearly redundant rows) and an iterative solve on it does not
+    /// converge. w is then the same quantity with every row as stiff as the
+    /// model's rigid rows (compliance c_r = `rigid_compliance`, 1e-6 of the
+    /// stiffest member's), over a step of length h: with X moving by
+    /// beta = h^2/4 + tau h/2 per unit of A (Newmark), D = c_r / beta and,
+    /// by Woodbury,
+    ///
+    ///     w = J_e (M + beta A^T A / c_r)^-1 J_e^T
+    ///       = J_e (M^-1 - M^-1 A^T (S + D)^-1 A M^-1) J_e^T,
+    ///
+    /// S + D positive definite however redundant the rows, factored at x.
+    /// Along a mechanism (A u = 0) it is the rigid w; the rows' stiffness
+    /// adds about c_r f / beta, f the structure's static compliance along
+    /// the sleeve per unit c_r (below 1e-9 of the free two-joint value on
+    /// the rings, whose members' own compliance would add 1e6 times as
+    /// much: w of the members' L/EA is the step's response, not a mode of
+    /// the latch, and leaves no latch immobile). The Jacobian is filled at x.
+    pub fn inverse_effective_mass(
+        &mut self,
+        model: &Model,
+        e: usize,
+        step_s: Option<f64>,
+    ) -> Result<f64, SolverError> {
         let el = &model.elements[e];
         let (ja, jb) = (el.joints()[0], el.joints()[1]);
         let d = crate::solver::elements::at(&self.x, jb) - crate::solver::elements::at(&self.x, ja);
@@ -359,7 +393,24 @@ impl Core {
         }
         self.c.fill(0.0);
         debug_assert!(self.implicit_h.is_none(), "between steps: plain masses");
-        self.solve_accelerations(model)?;
+        if let Some(h) = step_s {
+            // (compliant solves factor S + D themselves)
+            self.jac.fill(model, &self.x);
+            let d = self.rigid_compliance / self.relaxation_beta(h);
+            self.row_d.fill(d);
+            let report = self.solver.compliant_accelerations(
+                &self.jac,
+                &model.inv_mass,
+                &self.row_d,
+                &self.q,
+                &self.c,
+                &mut self.a,
+                &mut self.lambda,
+            )?;
+            self.book_solve(report);
+        } else {
+            self.solve_accelerations(model)?;
+        }
         Ok((0..3)
             .map(|k| u[k] * (self.a[3 * jb + k] - self.a[3 * ja + k]))
             .sum::<f64>()

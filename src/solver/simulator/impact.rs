@@ -348,15 +348,18 @@ impl Simulator {
 
     /// The mode a compliant latch of stiffness k across sleeve `e` makes
     /// with the structure at the state: the inverse effective mass w along
-    /// the sleeve (every rigid constraint holding, at the current
-    /// factorization) and the period 2 pi / sqrt(k w). None where the
+    /// the sleeve (every rigid constraint holding: at the current
+    /// factorization, or with elastic members from S + D factored at the
+    /// state, D = c_r / beta(dt_s), `Core::inverse_effective_mass`) and the
+    /// period 2 pi / sqrt(k w). None where the
     /// structure cannot move along the sleeve: w below `latch_immobile_rel`
     /// of its free two-joint value 1/m_a + 1/m_b (the spring would never
     /// deflect nor settle).
     fn latch_mode(&mut self, e: usize, k: f64) -> Result<Option<(f64, f64)>, SolverError> {
         let model = &self.model;
         self.core.x.copy_from_slice(&self.state.x);
-        let w = self.core.inverse_effective_mass(model, e)?;
+        let step_s = self.settings.elastic_members.then_some(model.dt_s);
+        let w = self.core.inverse_effective_mass(model, e, step_s)?;
         let period_s = 2.0 * std::f64::consts::PI / (k * w).sqrt();
         let [ja, jb] = [model.elements[e].joints()[0], model.elements[e].joints()[1]];
         let w_free = model.inv_mass[3 * ja] + model.inv_mass[3 * jb];
