@@ -19,6 +19,7 @@ use super::SolverError;
 
 pub mod dense;
 pub mod sparse;
+mod static_ldlt;
 
 /// Which multipliers a factorization's solves return. For a consistent
 /// right-hand side the motion is the same; off the constraint manifold

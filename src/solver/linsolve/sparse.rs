@@ -49,7 +49,9 @@
 //! - Compliant (`compliant_accelerations`, elastic members): S + D with a
 //!   positive D per row is positive definite whatever the redundancy, so it
 //!   is factored over every row as it is (no probe, no rejection) and CG
-//!   runs on S + D itself, preconditioned by that factorization; the
+//!   runs on S + D itself, preconditioned by that factorization (a
+//!   static-pattern LDL^T in the same AMD order, `static_ldlt`: its
+//!   symbolic work is done once per pattern); the
 //!   multipliers are unique. The factorization is kept while no Jacobian
 //!   entry has moved by more than `COMPLIANT_REUSE_TOL` and D and the masses
 //!   are the same.
@@ -62,6 +64,7 @@
 //! along null(S). `pivot_rank()` is the number of kept rows less those the last
 //! basic factorization rejected.
 
+use super::static_ldlt::StaticLdlt;
 use super::{ConstraintSolver, FactorReport, SolveMode, SolveReport};
 use crate::solver::jacobian::Jacobian;
 use crate::solver::SolverError;
@@ -223,10 +226,12 @@ pub struct SparseSchur {
     compliant: CompliantSlot,
 }
 
-/// LDL^T of S + diag(d) over every row, kept for the compliant solves.
+/// LDL^T of S + diag(d) over every row, kept for the compliant solves (a
+/// static-pattern factorization in the probe's AMD order: refactored at
+/// nearly every step, it skips the symbolic work a general one redoes).
 #[derive(Default)]
 struct CompliantSlot {
-    l_vals: Vec<f64>,
+    ldlt: StaticLdlt,
     d: Vec<f64>,
     inv_mass: Vec<f64>,
     jac_values: Vec<f64>,
@@ -323,8 +328,12 @@ impl SparseSchur {
         }
         (self.reprobe, self.next_reprobe) = (false, 0);
         self.rank = None;
+        let order: Vec<usize> = match self.full.symbolic.as_ref().and_then(|s| s.perm()) {
+            Some(p) => p.arrays().0.to_vec(),
+            None => (0..m).collect(),
+        };
         self.compliant = CompliantSlot {
-            l_vals: vec![0.0; self.full.len_val],
+            ldlt: StaticLdlt::new(&self.full.col_ptr, &self.full.row_idx, &order),
             ..CompliantSlot::default()
         };
         Ok(())
@@ -395,7 +404,7 @@ impl SparseSchur {
             .max(f64::MIN_POSITIVE);
         let cs = &mut self.compliant;
         // (pivots are at least min d in exact arithmetic; guard against roundoff)
-        pat.factor(&mut cs.l_vals, (dmin, 0.5 * dmin))?;
+        cs.ldlt.factor(&pat.s_vals, 0.5 * dmin, dmin);
         cs.d.clear();
         cs.d.extend_from_slice(d);
         cs.inv_mass.clear();
@@ -452,7 +461,7 @@ impl SparseSchur {
             return true;
         }
         self.dl.copy_from_slice(&self.res);
-        self.full.solve(&self.compliant.l_vals, &mut self.dl);
+        self.compliant.ldlt.solve(&mut self.dl);
         self.p.copy_from_slice(&self.dl);
         let mut rz = dot(&self.res, &self.dl);
         let mut dprev = f64::INFINITY;
@@ -492,7 +501,7 @@ impl SparseSchur {
                 return true;
             }
             self.dl.copy_from_slice(&self.res);
-            self.full.solve(&self.compliant.l_vals, &mut self.dl);
+            self.compliant.ldlt.solve(&mut self.dl);
             let rz_new = dot(&self.res, &self.dl);
             let beta = rz_new / rz;
             rz = rz_new;
@@ -1300,7 +1309,7 @@ impl ConstraintSolver for SparseSchur {
             report.factorizations += 1;
         }
         self.lam.copy_from_slice(&self.res);
-        self.full.solve(&self.compliant.l_vals, &mut self.lam);
+        self.compliant.ldlt.solve(&mut self.lam);
         jac.mul_t(&self.lam, &mut self.g);
         for (g, im) in self.g.iter_mut().zip(inv_mass) {
             *g *= im;
