@@ -73,9 +73,8 @@ pub struct SolverSettings {
     /// constrained solve; G' has the rank of the structure's free motions at
     /// most, so few are needed) until the residual is at most this fraction
     /// of the right-hand side (an inexact Newton step: G' itself leaves out
-    /// the geometric terms, so the steps converge linearly whatever this is;
-    /// on the bundled ring 1e-3 took as many Newton steps as 1e-6 with 44 %
-    /// fewer GMRES iterations, 1e-2 more Newton steps) ...
+    /// the geometric terms, so the steps converge linearly, at a rate a
+    /// tighter solve of (I - G') d does not improve) ...
     pub newmark_newton_krylov_tol_rel: f64,
     /// ... or for at most this many iterations.
     pub newmark_newton_krylov_max: usize,

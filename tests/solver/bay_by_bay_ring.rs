@@ -487,11 +487,11 @@ fn the_ring_with_compliant_latches_deploys_and_reports_every_latch_force() {
         }),
         ..RingParams::bay_by_bay()
     });
-    let dt = model.dt_s;
+    let (dt, until_s) = (model.dt_s, model.end_time_s);
     let mut sim = Simulator::new(model, Options::default()).unwrap();
-    // (bounded: 2000 s simulated)
+    // (bounded: the model's end time, 2000 s simulated)
     while !sim.state().deployed {
-        assert!(sim.state().t_s < 2000.0, "not deployed by 2000 s");
+        assert!(sim.state().t_s < until_s, "not deployed by {until_s} s");
         sim.step(dt).unwrap();
     }
     let (s, m) = (sim.state(), sim.model());
@@ -571,6 +571,11 @@ fn generated_rings_bring_what_their_size_needs() {
         ring(&by_hand).unwrap().to_toml()
     );
     assert_eq!(RingParams::bay_by_bay_sized(24).inner_chord_m, 0.6735);
+    // (end times for n^2 deployments: 2000 s up to 18 sides)
+    for (sides, end_s) in [(12, 2000.0), (18, 2000.0), (36, 8000.0), (72, 32000.0)] {
+        let m = ring(&RingParams::bay_by_bay_sized(sides)).unwrap();
+        assert_eq!(m.end_time_s, end_s, "{sides} sides");
+    }
     for sides in [12, 18] {
         assert_eq!(
             ring(&RingParams::bay_by_bay_sized(sides))

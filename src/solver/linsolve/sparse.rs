@@ -404,7 +404,7 @@ impl SparseSchur {
             .max(f64::MIN_POSITIVE);
         let cs = &mut self.compliant;
         // (pivots are at least min d in exact arithmetic; guard against roundoff)
-        cs.ldlt.factor(&pat.s_vals, 0.5 * dmin, dmin);
+        cs.ldlt.factor(&pat.s_vals, 0.5 * dmin, dmin)?;
         cs.d.clear();
         cs.d.extend_from_slice(d);
         cs.inv_mass.clear();
@@ -417,17 +417,17 @@ impl SparseSchur {
         Ok(())
     }
 
-    /// A factorization of S + D for a compliant solve: the kept one while
-    /// D and the masses are the same, its solves stayed short and no
-    /// Jacobian entry has moved by more than `COMPLIANT_REUSE_TOL`, else a
-    /// new one. Returns whether the kept one serves, and the report so far.
+    /// A factorization of S + D for a compliant solve (on the pattern of
+    /// `ensure_structure`): the kept one while D and the masses are the
+    /// same, its solves stayed short and no Jacobian entry has moved by
+    /// more than `COMPLIANT_REUSE_TOL`, else a new one. Returns whether the
+    /// kept one serves, and the report so far.
     fn ensure_compliant_factorization(
         &mut self,
         jac: &Jacobian,
         inv_mass: &[f64],
         d: &[f64],
     ) -> Result<(bool, SolveReport), SolverError> {
-        self.ensure_structure(jac)?;
         let cs = &self.compliant;
         let reuse = cs.valid
             && cs.worst_iterations <= REUSE_MAX_ITERATIONS
@@ -1255,6 +1255,8 @@ impl ConstraintSolver for SparseSchur {
         lambda: &mut [f64],
     ) -> Result<SolveReport, SolverError> {
         // a0 = M^-1 Q; lambda = (S + D)^-1 (-c - A a0); a = a0 + M^-1 A^T lambda.
+        // (the pattern first: the rhs buffers are sized by it)
+        self.ensure_structure(jac)?;
         if !self.unconstrained_part(jac, inv_mass, q, c, a) {
             return Ok(SolveReport::DIRECT);
         }
@@ -1292,14 +1294,22 @@ impl ConstraintSolver for SparseSchur {
         lambda: &mut [f64],
     ) -> Result<SolveReport, SolverError> {
         // lambda = (L D L^T)^-1 (-c - A M^-1 Q) once, a = M^-1 (Q + A^T lambda).
+        self.ensure_structure(jac)?;
         if !self.unconstrained_part(jac, inv_mass, q, c, a) {
             return Ok(SolveReport::DIRECT);
         }
-        // (the kept factorization serves whatever the Jacobian's age: the
-        // Newton direction's operator is at the iterate the last solve
-        // factored or refined at)
-        self.ensure_structure(jac)?;
+        // The caller (a Newton direction) comes right after a compliant
+        // solve at the same Jacobian, D and masses, whose factorization is
+        // within `COMPLIANT_REUSE_TOL` of it; a D or masses of another solve
+        // (an acceleration-level start, a latch's w) are refactored.
         let cs = &self.compliant;
+        debug_assert!(
+            !(cs.valid && cs.d == d && cs.inv_mass == inv_mass) || {
+                let (dmax, amax) = max_abs_diff(&jac.values, &cs.jac_values);
+                dmax <= COMPLIANT_REUSE_TOL * amax
+            },
+            "a Newton direction at a Jacobian the kept factorization was not made near"
+        );
         let mut report = SolveReport::default();
         if cs.valid && cs.d == d && cs.inv_mass == inv_mass {
             self.reused_factorizations += 1;
@@ -1314,10 +1324,8 @@ impl ConstraintSolver for SparseSchur {
         for (g, im) in self.g.iter_mut().zip(inv_mass) {
             *g *= im;
         }
-        self.solves += 1;
-        self.cg_iterations += 1;
+        // (a direct pass: no CG iteration, nothing to converge)
         self.constrained_part(a, lambda);
-        report.iterations = 1;
         report.converged = true;
         Ok(report)
     }

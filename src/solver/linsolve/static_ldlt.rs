@@ -11,11 +11,13 @@
 //! arithmetic alone: one scatter of A's column, and for every nonzero l_kj
 //!     y -= L_{:,j} y_j,   l_kj = y_j / d_j,   d_k -= l_kj y_j.
 
+use crate::solver::SolverError;
+
 /// The factorization and the maps that make it (all sized once).
 #[derive(Debug, Default)]
 pub struct StaticLdlt {
-    /// P A P^T, upper triangle by columns (rows ascending), and where each
-    /// entry of the caller's upper-triangular storage lands in it.
+    // P A P^T, upper triangle by columns (rows ascending), and where each
+    // entry of the caller's upper-triangular storage lands in it.
     ap: Vec<usize>,
     ai: Vec<usize>,
     ax: Vec<f64>,
@@ -77,8 +79,8 @@ impl StaticLdlt {
             src_pos[q] = pos;
         }
         // elimination tree and each row's reach (ldl_symbolic), the reach
-        // in the order ldl_numeric eliminates it: each path up the tree
-        // reversed, later paths first
+        // in the order ldl_numeric eliminates it: a node before its
+        // ancestors, later paths first
         let mut parent = vec![NONE; n];
         let mut flag = vec![NONE; n];
         let mut col_count = vec![0usize; n];
@@ -145,8 +147,9 @@ impl StaticLdlt {
 
     /// Numeric LDL^T of A with the values `vals` (the caller's storage, in
     /// `new`'s pattern); a pivot at or below `min_pivot` becomes `floor`
-    /// (roundoff on a matrix positive definite by construction).
-    pub fn factor(&mut self, vals: &[f64], min_pivot: f64, floor: f64) {
+    /// (roundoff on a matrix positive definite by construction). A
+    /// non-finite pivot is an error.
+    pub fn factor(&mut self, vals: &[f64], min_pivot: f64, floor: f64) -> Result<(), SolverError> {
         for (&pos, &v) in self.src_pos.iter().zip(vals) {
             self.ax[pos] = v;
         }
@@ -170,8 +173,16 @@ impl StaticLdlt {
                 self.lx[p1] = l_kj;
                 self.done[j] += 1;
             }
+            if !dk.is_finite() {
+                self.y.fill(0.0);
+                return Err(SolverError::NonFinite(format!(
+                    "LDL^T of the compliant system: pivot {dk} at row {}",
+                    self.perm[k]
+                )));
+            }
             self.d[k] = if dk > min_pivot { dk } else { floor };
         }
+        Ok(())
     }
 
     /// b <- A^-1 b with the last factorization.
@@ -261,7 +272,7 @@ mod tests {
                 })
                 .map(|(i, j)| dense[i][j])
                 .collect();
-            f.factor(&vals, 0.0, 1.0);
+            f.factor(&vals, 0.0, 1.0).unwrap();
             let x: Vec<f64> = (0..n).map(|_| rnd() - 0.5).collect();
             let mut b: Vec<f64> = (0..n)
                 .map(|i| (0..n).map(|j| dense[i][j] * x[j]).sum())
@@ -274,5 +285,31 @@ mod tests {
                 .fold(0.0, f64::max);
             assert!(err < 1e-13, "pass {pass}: error {err:e}");
         }
+    }
+
+    /// A pivot at or below the bound becomes the floor (here the second of
+    /// [[1, 1], [1, 1]]: 0 after elimination); a non-finite one is an
+    /// error; no rows is no work.
+    #[test]
+    fn floors_small_pivots_and_refuses_non_finite_ones() {
+        let (col_ptr, row_idx) = (vec![0, 1, 3], vec![0, 0, 1]);
+        let mut f = StaticLdlt::new(&col_ptr, &row_idx, &[0, 1]);
+        f.factor(&[1.0, 1.0, 1.0], 1e-12, 0.5).unwrap();
+        // L = [[1, 0], [1, 1]], D = diag(1, 0.5): A~ = [[1, 1], [1, 1.5]]
+        let mut b = vec![2.0, 2.5];
+        f.solve(&mut b);
+        assert!(
+            (b[0] - 1.0).abs() < 1e-15 && (b[1] - 1.0).abs() < 1e-15,
+            "{b:?}"
+        );
+        assert!(f.factor(&[1.0, f64::NAN, 1.0], 1e-12, 0.5).is_err());
+        // (the scratch is clean after the error)
+        f.factor(&[2.0, 0.0, 3.0], 1e-12, 0.5).unwrap();
+        let mut b = vec![2.0, 3.0];
+        f.solve(&mut b);
+        assert_eq!(b, vec![1.0, 1.0]);
+        let mut empty = StaticLdlt::new(&[0], &[], &[]);
+        empty.factor(&[], 1e-12, 0.5).unwrap();
+        empty.solve(&mut []);
     }
 }

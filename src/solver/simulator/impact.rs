@@ -368,9 +368,9 @@ impl Simulator {
     }
 
     /// A compliant latch engages at the state: its event (peak to come) and
-    /// transient, with the structure's effective mass along the sleeve (at
-    /// the factorization the accepted step left, every rigid constraint
-    /// holding) for its period 2 pi / sqrt(k w). Returns false, engaging
+    /// transient, with the structure's effective mass along the sleeve
+    /// (`latch_mode`: every rigid constraint holding; with elastic members
+    /// solved on S + D factored at the state) for its period 2 pi / sqrt(k w). Returns false, engaging
     /// nothing, where the structure cannot move along the sleeve (w below
     /// `latch_immobile_rel` of its free value: its spring would never
     /// deflect nor settle); the caller latches it rigid (a counted
@@ -590,8 +590,8 @@ impl Simulator {
         }
         let mut turned = 0;
         while !self.state.transients.is_empty() {
-            // (at the factorization of the state's constraint set that
-            // `lock_rigidly` or the accepted step left)
+            // (w solved on S + D factored at the state: elastic members
+            // only reach here)
             let mut immobile = Vec::new();
             for i in 0..self.state.transients.len() {
                 let (e, k) = {

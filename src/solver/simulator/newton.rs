@@ -13,9 +13,8 @@
 //! in the kinetic inner product <x, y> = sum m_i x_i y_i, each GMRES iteration
 //! one constrained solve with the iterate's factorization (with elastic
 //! members one pass of the kept LDL^T of S + D, unrefined:
-//! `compliant_response`; a direction needs no more, and the unrefined pass
-//! halved the bundled ring's solve iterations and cut its wall time 1.7x
-//! with the deploy time the same to 1e-13). G' maps into the
+//! `compliant_response`; a direction needs no more, since the line search
+//! judges every iterate on the exact residual). G' maps into the
 //! structure's free motions, so GMRES needs about as many iterations as there
 //! are mechanisms (one on the double ring) plus one.
 //!
