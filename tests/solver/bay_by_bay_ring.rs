@@ -572,7 +572,13 @@ fn generated_rings_bring_what_their_size_needs() {
     );
     assert_eq!(RingParams::bay_by_bay_sized(24).inner_chord_m, 0.6735);
     // (end times for n^2 deployments: 2000 s up to 18 sides)
-    for (sides, end_s) in [(12, 2000.0), (18, 2000.0), (36, 8000.0), (72, 32000.0)] {
+    for (sides, end_s) in [
+        (12, 2000.0),
+        (18, 2000.0),
+        (24, 3556.0),
+        (36, 8000.0),
+        (72, 32000.0),
+    ] {
         let m = ring(&RingParams::bay_by_bay_sized(sides)).unwrap();
         assert_eq!(m.end_time_s, end_s, "{sides} sides");
     }

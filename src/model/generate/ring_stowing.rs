@@ -158,14 +158,14 @@ fn raised_chord_error(p: &RingParams, phi: f64, te: f64, to: f64) -> f64 {
 }
 
 /// The end time a bay-by-bay ring of `sides` sides is written with (s):
-/// 2000 (n/18)^2, at least 2000. The drive pulls the bays open one after
+/// 2000 (n/18)^2 rounded up to the second, at least 2000. The drive pulls the bays open one after
 /// another along a cable whose length and pulley count grow with n, so the
 /// deployment takes about n^2 as long: the generated rings deploy at
 /// 272, 613, 1117, 2667 and 12,927 s for 12, 18, 24, 36 and 72 sides at
 /// mu 0.005 (4464 s for 36 sides at mu 0.02), within 56 % of this bound.
 pub fn bay_by_bay_end_time_s(sides: usize) -> f64 {
     let r = sides as f64 / 18.0;
-    2000.0 * (r * r).max(1.0)
+    (2000.0 * (r * r).max(1.0)).ceil()
 }
 
 /// Bay-by-bay ring: the 2-periodic fold at outer chord tilt phi (rad), the
