@@ -607,7 +607,7 @@ fn a_12_sided_ring_deploys_to_full_lock_bay_by_bay_and_friction_orders_it() {
 
 /// The 36-sided ring `generate ring --sides 36 [--mu 0.02]` writes with its
 /// defaults does the same, with no capture range and no result accepted
-/// inexact. Release: 263 s (mu 0.005) and 460 s (mu 0.02), one run at a time:
+/// inexact. Release: 301 s for both runs, one at a time:
 /// `cargo test --release --test solver bay_by_bay_ring::a_36 -- --ignored`.
 #[test]
 #[ignore = "two runs of 4-8 min each in release; cargo test --release --test solver bay_by_bay_ring::a_36 -- --ignored"]
