@@ -220,8 +220,11 @@ pub struct SolverSettings {
     /// falls as h^2: the bundled mast's balance 1.13e-5 at 20, 8.1e-6 at 40,
     /// 7.3e-6 at 80, against 7.15e-6 with rigid latches).
     pub latch_settle_steps_per_period: f64,
-    /// A compliant latch has settled, and turns rigid, once its force varied
-    /// by at most this fraction of its peak over one of its periods.
+    /// A compliant latch has settled, and turns rigid, once its force swung
+    /// by at most this fraction of its peak over one of its periods beyond
+    /// its net change there (max - min - |end - start|: its vibration has
+    /// died out; a load the drive keeps raising is carried on by the rigid
+    /// latch, or with elastic members by its row).
     pub latch_settle_rel: f64,
     /// A compliant latch turns rigid after at most this many of its periods,
     /// settled or not (the rigid latch takes the oscillation left).

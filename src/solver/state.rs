@@ -54,10 +54,12 @@ pub struct LatchTransient {
     /// Latch tension and its rate at the state (N, N/s).
     pub force_n: f64,
     pub force_rate_n_s: f64,
-    /// Extremes of sign * T over the current window of one period, and its start.
+    /// Extremes of sign * T over the current window of one period, its
+    /// start, and sign * T there.
     pub window_max_n: f64,
     pub window_min_n: f64,
     pub window_start_s: f64,
+    pub window_start_force_n: f64,
     /// Integral of T dt and the damper's dissipation since engagement (N s, J).
     pub impulse_ns: f64,
     pub dissipated_j: f64,

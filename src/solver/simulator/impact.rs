@@ -11,8 +11,8 @@
 //! spring-damper about its lock length, T = k (l - L) + c ldot, applied as a
 //! force (`integrator`); the steps resolve its period (`transient_step_s`),
 //! its peak force is located on the Hermite interpolant of T(t), and once its
-//! force varies by at most `latch_settle_rel` of the peak over one period (or
-//! after `latch_max_periods`) it turns rigid: the joints move back onto the
+//! force swings by at most `latch_settle_rel` of the peak over one period
+//! beyond its net change there (or after `latch_max_periods`) it turns rigid: the joints move back onto the
 //! lock length (by its deflection T/k), the velocities onto the rigid
 //! manifold, and its spring energy with the drive's work over that move go
 //! with the latch loss. With elastic members nothing moves: the sleeve's row
@@ -307,12 +307,12 @@ impl Simulator {
         }
     }
 
-    /// Elastic members: the compliant latches that latched as their row
-    /// (no transient: the structure could not move along them) carry the
-    /// row's force, T = -lambda with Phi + tau Phidot + c lambda = 0,
-    /// c = L/EA + 1/k: the force through tube and latch in series. Their
-    /// event's peak force is the largest |T| at the state since they
-    /// latched (called after every accepted sub-step and at their latch).
+    /// Elastic members: a latched compliant latch (as its row at once, or
+    /// after its transient) carries the row's force, T = -lambda with
+    /// Phi + tau Phidot + c lambda = 0, c = L/EA + 1/k: the force through
+    /// tube and latch in series. Its event's peak force is the largest |T|
+    /// through it, over its transient and then at every state since its row
+    /// took over (called after every accepted sub-step and at its latch).
     pub(super) fn track_latch_rows(&mut self) {
         if !self.settings.elastic_members {
             return;
@@ -320,8 +320,7 @@ impl Simulator {
         let (model, jac, s) = (&self.model, &self.core.jac, &mut self.state);
         for ev in &mut s.locks {
             let e = ev.element;
-            if ev.rigid_at_s.is_some() || !s.locked[e] || model.elements[e].latch_spring().is_none()
-            {
+            if !s.locked[e] || model.elements[e].latch_spring().is_none() {
                 continue;
             }
             let Some(f) = jac
@@ -420,6 +419,7 @@ impl Simulator {
             window_max_n: sign * force_n,
             window_min_n: sign * force_n,
             window_start_s: t,
+            window_start_force_n: sign * force_n,
             impulse_ns: 0.0,
             dissipated_j: 0.0,
         });
@@ -476,9 +476,11 @@ impl Simulator {
         2.0 * std::f64::consts::PI / omega2.sqrt()
     }
 
-    /// Turns rigid the compliant latches whose transient is over: the force
-    /// varied by at most `latch_settle_rel` of its peak over the last period,
-    /// or `latch_max_periods` have passed (a counted fallback). Returns how
+    /// Turns rigid the compliant latches whose transient is over: over the
+    /// last period the force swung by at most `latch_settle_rel` of its
+    /// peak beyond its net change (max - min - |T_end - T_start|: a
+    /// vibration swings, a load the drive raises steadily does not), or
+    /// `latch_max_periods` have passed (a counted fallback). Returns how
     /// many turned rigid.
     pub(super) fn settle_transients(&mut self) -> Result<usize, SolverError> {
         if self.state.transients.is_empty() {
@@ -489,9 +491,15 @@ impl Simulator {
         let mut due: Vec<usize> = Vec::new();
         for tr in &self.state.transients {
             let window_done = window_over(tr, t);
+            // (the window's spread less its net change: what the force
+            // swung beyond a steady change; a latch the drive loads
+            // steadily has none)
+            let swing = tr.window_max_n
+                - tr.window_min_n
+                - (tr.sign * tr.force_n - tr.window_start_force_n).abs();
             let calm = self.state.locks[tr.event]
                 .peak_force_n
-                .is_some_and(|p| tr.window_max_n - tr.window_min_n <= st.latch_settle_rel * p);
+                .is_some_and(|p| swing <= st.latch_settle_rel * p);
             let overdue = t - tr.engaged_at_s >= st.latch_max_periods * tr.period_s;
             if (window_done && calm) || overdue {
                 due.push(tr.element);
@@ -506,6 +514,7 @@ impl Simulator {
                 let f = tr.sign * tr.force_n;
                 (tr.window_max_n, tr.window_min_n) = (f, f);
                 tr.window_start_s = t;
+                tr.window_start_force_n = f;
             }
         }
         if due.is_empty() {
