@@ -62,6 +62,8 @@ pub(super) struct Core {
     pub prev_h2: Option<f64>,
     pub a_prev3: Vec<f64>,
     pub prev_h3: Option<f64>,
+    pub a_prev4: Vec<f64>,
+    pub prev_h4: Option<f64>,
     /// The least-work split of redundant multipliers (member forces on
     /// request, latch impulses), with a backend of its own; made at first use.
     pub least_work: Option<LeastWork>,
@@ -144,6 +146,8 @@ impl Core {
             prev_h2: None,
             a_prev3: vec![0.0; n],
             prev_h3: None,
+            a_prev4: vec![0.0; n],
+            prev_h4: None,
             least_work: None,
             springs: Vec::new(),
             waiting: Vec::new(),

@@ -22,6 +22,8 @@ impl Simulator {
     /// Commits the trial step of length h to the state, with the energy ledger.
     pub(super) fn accept(&mut self, h: f64) {
         self.core.stats.substeps += 1;
+        std::mem::swap(&mut self.core.a_prev3, &mut self.core.a_prev4);
+        self.core.prev_h4 = self.core.prev_h3;
         std::mem::swap(&mut self.core.a_prev2, &mut self.core.a_prev3);
         self.core.prev_h3 = self.core.prev_h2;
         std::mem::swap(&mut self.core.a_prev, &mut self.core.a_prev2);

@@ -298,6 +298,7 @@ impl Simulator {
             core.a_prev[i] += jump;
             core.a_prev2[i] += jump;
             core.a_prev3[i] += jump;
+            core.a_prev4[i] += jump;
         }
         let s = &mut self.state;
         s.a.copy_from_slice(&core.a);
