@@ -421,22 +421,29 @@ impl SparseSchur {
     /// `ensure_structure`): the kept one while D and the masses are the
     /// same, its solves stayed short and no Jacobian entry has moved by
     /// more than `COMPLIANT_REUSE_TOL`, else a new one. Returns whether the
-    /// kept one serves, and the report so far.
+    /// kept one serves, and the report so far. A Newton direction's pass
+    /// (`direction`) comes right after a solve at the same Jacobian, so
+    /// the kept one serves it whatever its solves took, once D and the
+    /// masses match (its age is debug-asserted); a D or masses of another
+    /// solve (an acceleration-level start, a latch's w) are refactored.
     fn ensure_compliant_factorization(
         &mut self,
         jac: &Jacobian,
         inv_mass: &[f64],
         d: &[f64],
+        direction: bool,
     ) -> Result<(bool, SolveReport), SolverError> {
         let cs = &self.compliant;
-        let reuse = cs.valid
-            && cs.worst_iterations <= REUSE_MAX_ITERATIONS
-            && cs.d == d
-            && cs.inv_mass == inv_mass
-            && {
-                let (dmax, amax) = max_abs_diff(&jac.values, &cs.jac_values);
-                dmax <= COMPLIANT_REUSE_TOL * amax
-            };
+        let same = cs.valid && cs.d == d && cs.inv_mass == inv_mass;
+        let young = || {
+            let (dmax, amax) = max_abs_diff(&jac.values, &cs.jac_values);
+            dmax <= COMPLIANT_REUSE_TOL * amax
+        };
+        debug_assert!(
+            !(direction && same) || young(),
+            "a Newton direction at a Jacobian the kept factorization was not made near"
+        );
+        let reuse = same && (direction || (cs.worst_iterations <= REUSE_MAX_ITERATIONS && young()));
         let mut report = SolveReport::default();
         if reuse {
             self.reused_factorizations += 1;
@@ -1260,7 +1267,7 @@ impl ConstraintSolver for SparseSchur {
         if !self.unconstrained_part(jac, inv_mass, q, c, a) {
             return Ok(SolveReport::DIRECT);
         }
-        let (reuse, mut report) = self.ensure_compliant_factorization(jac, inv_mass, d)?;
+        let (reuse, mut report) = self.ensure_compliant_factorization(jac, inv_mass, d, false)?;
         self.rhs_keep.copy_from_slice(&self.res);
         let mut converged = self.compliant_pcg(jac, inv_mass, d);
         let mut iterations = self.last_iterations;
@@ -1298,26 +1305,7 @@ impl ConstraintSolver for SparseSchur {
         if !self.unconstrained_part(jac, inv_mass, q, c, a) {
             return Ok(SolveReport::DIRECT);
         }
-        // The caller (a Newton direction) comes right after a compliant
-        // solve at the same Jacobian, D and masses, whose factorization is
-        // within `COMPLIANT_REUSE_TOL` of it; a D or masses of another solve
-        // (an acceleration-level start, a latch's w) are refactored.
-        let cs = &self.compliant;
-        debug_assert!(
-            !(cs.valid && cs.d == d && cs.inv_mass == inv_mass) || {
-                let (dmax, amax) = max_abs_diff(&jac.values, &cs.jac_values);
-                dmax <= COMPLIANT_REUSE_TOL * amax
-            },
-            "a Newton direction at a Jacobian the kept factorization was not made near"
-        );
-        let mut report = SolveReport::default();
-        if cs.valid && cs.d == d && cs.inv_mass == inv_mass {
-            self.reused_factorizations += 1;
-            report.reused_factorization = true;
-        } else {
-            self.refactor_compliant(jac, inv_mass, d)?;
-            report.factorizations += 1;
-        }
+        let (_, mut report) = self.ensure_compliant_factorization(jac, inv_mass, d, true)?;
         self.lam.copy_from_slice(&self.res);
         self.compliant.ldlt.solve(&mut self.lam);
         jac.mul_t(&self.lam, &mut self.g);

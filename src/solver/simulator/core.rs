@@ -91,8 +91,6 @@ pub(super) struct Core {
     pub row_d: Vec<f64>,
     pub row_phi: Vec<f64>,
     pub row_rate: Vec<f64>,
-    /// The compliance of the rows that are not members (m/N).
-    pub rigid_compliance: f64,
     /// Set while solves are compliant: the step length they are scaled to,
     /// and whether they hold Phi + tau Phidot + c lambda = 0 at the Newmark
     /// positions (index 3) rather than at acceleration level.
@@ -159,7 +157,6 @@ impl Core {
             row_d: Vec::new(),
             row_phi: Vec::new(),
             row_rate: Vec::new(),
-            rigid_compliance: 0.0,
             compliant: None,
             relaxation_s: model.solver.member_relaxation_s,
             strain_trial_j: 0.0,
@@ -185,8 +182,7 @@ impl Core {
                 self.row_compliance[b.row0] = latched_sleeve_compliance(model, b.element);
             }
         }
-        let rigid = 1e-6 * model.stiffest_compliance_m_per_n;
-        self.rigid_compliance = rigid;
+        let rigid = rigid_compliance(model);
         self.row_member.clear();
         self.row_member
             .extend(self.row_compliance.iter().map(|c| c.is_finite()));
@@ -400,7 +396,7 @@ impl Core {
         if let Some(h) = step_s {
             // (compliant solves factor S + D themselves)
             self.jac.fill(model, &self.x);
-            let d = self.rigid_compliance / self.relaxation_beta(h);
+            let d = rigid_compliance(model) / self.relaxation_beta(h);
             self.row_d.fill(d);
             let report = self.solver.compliant_accelerations(
                 &self.jac,
@@ -455,6 +451,12 @@ impl Core {
         self.strain_trial_j = from.strain_j;
         self.member_force_trial.clone_from(&from.member_force);
     }
+}
+
+/// The compliance given to the rows that are not members (m/N): 1e-6 of
+/// the stiffest member's, rigid next to every member.
+fn rigid_compliance(model: &Model) -> f64 {
+    1e-6 * model.stiffest_compliance_m_per_n
 }
 
 /// The compliance of a latched sleeve's row (m/N): its tube's L/EA, in
