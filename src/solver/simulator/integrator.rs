@@ -430,8 +430,16 @@ impl Core {
             let friction = stiff && self.friction_blend_active(model);
             if friction
                 || (stiff
-                    && self.element_springs.max_gain(model, &self.x, h)
-                        >= st.newmark_newton_trigger)
+                    && self.element_springs.max_gain(model, &self.x, h).max(
+                        super::springs::add_latch_spring_derivative(
+                            model,
+                            &self.springs,
+                            &self.x,
+                            h,
+                            None,
+                            &mut [],
+                        ),
+                    ) >= st.newmark_newton_trigger)
             {
                 newton_for_friction = friction;
                 newton = true;

@@ -296,6 +296,14 @@ impl Core {
         }
         self.element_springs
             .add_force_derivative(model, h, x, &mut nw.dq);
+        super::springs::add_latch_spring_derivative(
+            model,
+            &self.springs,
+            &self.x,
+            h,
+            Some(x),
+            &mut nw.dq,
+        );
         w.copy_from_slice(x);
         if nw.dq.iter().all(|v| *v == 0.0) {
             return Ok(());

@@ -196,3 +196,128 @@ impl ElementSprings {
         (elastic_j, damper_j)
     }
 }
+
+/// The engaged compliant latches of a transient, each (element, k, c): the
+/// tension T = k g + c gdot along the sleeve's unit axis u (`Core::springs`).
+/// Its derivative per unit change dA of the accelerations (X and V move by
+/// h^2/4 and h/2 per unit A): dT = (k h^2/4 + c h/2) u . (dA_b - dA_a),
+/// pulling a by dT u and b by -dT u. Left out are the terms from the turn
+/// of u: the transverse force T/l (I - u u^T) h^2/4 and the damper's
+/// c (v_b - v_a) . du (at a latch's load and a transient's sub-steps both
+/// are far below the joints' mass; Newton's line search judges every
+/// iterate on the exact residual). Adds it to `dq` and returns the largest
+/// gain of the Newmark map on a latch, (k h^2/4 + c h/2) (1/m_a + 1/m_b)
+/// along u.
+pub fn add_latch_spring_derivative(
+    model: &Model,
+    springs: &[(usize, f64, f64)],
+    x: &[f64],
+    h: f64,
+    da: Option<&[f64]>,
+    dq: &mut [f64],
+) -> f64 {
+    let mut max_gain = 0.0f64;
+    for &(e, k, c) in springs {
+        let joints = model.elements[e].joints();
+        let (ja, jb) = (joints[0], joints[1]);
+        let mut u = [0.0; 3];
+        for (k3, u) in u.iter_mut().enumerate() {
+            *u = x[3 * jb + k3] - x[3 * ja + k3];
+        }
+        let l = (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]).sqrt();
+        if l <= 0.0 {
+            continue;
+        }
+        u.iter_mut().for_each(|u| *u /= l);
+        let gain = 0.25 * h * h * k + 0.5 * h * c;
+        let inv_mass: f64 = (0..3)
+            .map(|k3| u[k3] * u[k3] * (model.inv_mass[3 * ja + k3] + model.inv_mass[3 * jb + k3]))
+            .sum();
+        max_gain = max_gain.max(gain * inv_mass);
+        let Some(da) = da else { continue };
+        let rate: f64 = (0..3)
+            .map(|k3| u[k3] * (da[3 * jb + k3] - da[3 * ja + k3]))
+            .sum();
+        for k3 in 0..3 {
+            let f = gain * rate * u[k3];
+            dq[3 * ja + k3] += f;
+            dq[3 * jb + k3] -= f;
+        }
+    }
+    max_gain
+}
+
+#[cfg(test)]
+mod tests {
+    use super::add_latch_spring_derivative;
+    use crate::model::generate::{self, LatchParams, MastParams};
+
+    /// The latch springs' derivative against central differences of the
+    /// tension along the sleeve, T = k g + c gdot from the element's own
+    /// gap and extension rate, at X + (h^2/4) eps dA, V + (h/2) eps dA (the
+    /// Newmark move per unit A), from rest (where the terms of the turn of
+    /// u that the derivative leaves out vanish): the axial part of the force
+    /// on each joint, u . dQ, is dT to first order (the transverse part
+    /// T du is orthogonal to u).
+    #[test]
+    fn latch_spring_derivative_matches_finite_differences() {
+        let params = MastParams {
+            latch: Some(LatchParams {
+                stiffness_n_per_m: 2e5,
+                damping_n_s_per_m: 300.0,
+            }),
+            ..MastParams::default()
+        };
+        let text = generate::mast(&params).unwrap().to_toml();
+        let model = crate::model::parse(&text, "mast.toml").unwrap().model;
+        let n = model.n_coords();
+        let springs: Vec<(usize, f64, f64)> = model
+            .elements
+            .iter()
+            .enumerate()
+            .filter_map(|(e, el)| el.latch_spring().map(|(k, c)| (e, k, c)))
+            .collect();
+        assert!(!springs.is_empty(), "the mast has compliant latches");
+        let x = model.x0.clone();
+        let v = vec![0.0; n];
+        let da: Vec<f64> = (0..n).map(|i| ((i * 5 % 13) as f64 - 6.0) / 6.0).collect();
+        let h = 1e-3;
+        for &(e, k, c) in &springs {
+            // (one spring at a time: the mast's sleeves share joints)
+            let mut dq = vec![0.0; n];
+            let gain = add_latch_spring_derivative(&model, &[(e, k, c)], &x, h, Some(&da), &mut dq);
+            assert!(gain > 0.0);
+            let el = &model.elements[e];
+            let (ja, jb) = (el.joints()[0], el.joints()[1]);
+            let tension = |eps: f64| {
+                let xe: Vec<f64> = (0..n).map(|i| x[i] + 0.25 * h * h * eps * da[i]).collect();
+                let ve: Vec<f64> = (0..n).map(|i| v[i] + 0.5 * h * eps * da[i]).collect();
+                k * el.lock_gap(&xe).unwrap() + c * el.extension(&xe, &ve).unwrap().1
+            };
+            let eps = 1e-3;
+            let dt_fd = (tension(eps) - tension(-eps)) / (2.0 * eps);
+            let l: f64 = (0..3)
+                .map(|k3| (x[3 * jb + k3] - x[3 * ja + k3]).powi(2))
+                .sum::<f64>()
+                .sqrt();
+            let axial = |j: usize| -> f64 {
+                (0..3)
+                    .map(|k3| (x[3 * jb + k3] - x[3 * ja + k3]) / l * dq[3 * j + k3])
+                    .sum()
+            };
+            assert!(
+                (axial(ja) - dt_fd).abs() <= 1e-7 * dt_fd.abs().max(1.0),
+                "{}: {} vs {dt_fd}",
+                el.name(),
+                axial(ja)
+            );
+            assert!(
+                (axial(jb) + dt_fd).abs() <= 1e-7 * dt_fd.abs().max(1.0),
+                "{}: {} vs {}",
+                el.name(),
+                axial(jb),
+                -dt_fd
+            );
+        }
+    }
+}
