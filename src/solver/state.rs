@@ -51,9 +51,11 @@ pub struct LatchTransient {
     /// there: with one mechanism n, w_i = (A_i n)^2 / n^T M n).
     pub period_s: f64,
     pub engaged_at_s: f64,
-    /// Latch tension and its rate at the state (N, N/s).
+    /// Latch tension at the state (N), and the sleeve's lock gap and
+    /// extension rate there (m, m/s), from which it is interpolated.
     pub force_n: f64,
-    pub force_rate_n_s: f64,
+    pub gap_m: f64,
+    pub rate_m_s: f64,
     /// Extremes of sign * T over the current window of one period, its
     /// start, and sign * T there.
     pub window_max_n: f64,

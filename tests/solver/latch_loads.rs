@@ -491,7 +491,17 @@ fn parallel_compliant_latches_share_by_stiffness() {
 ///   its force is T_i(t) = (A_i n) (k q + c q') and its closing speed
 ///   ldot_i = (A_i n) q'(0): with the same k and c on every latch, the peak
 ///   over the closing speed is one number for all of them, at least c (the
-///   damper's force at contact, c ldot_i).
+///   damper's force at contact, c ldot_i). Just after contact
+///   T_i'(0+) = (A_i n) (k q'(0) + c q''(0+)), q''(0+) = q''(0-) - w c q'(0)
+///   (the damper's force decelerates the mode, w its inverse mass): where
+///   c^2 w > k (damping ratio above 1/2) and the drive's slow q''(0-) is
+///   small, the force only falls from contact, and the peak is c ldot_i.
+///   The one mode's w, from its first sub-step's deceleration w c q'(0):
+///   3.3 /kg, c^2 w = 3.0e5 N/m against k = 2e5 N/m. (A peak located on
+///   the tension's own Hermite interpolant, with the rate k ldot + c l''
+///   from the accelerations, put it 1e-5 s after contact at 1.079 N s/m
+///   above c at 128 sub-steps per period and 0.135 at 1024: a first-order
+///   artifact that falls to 0.)
 #[test]
 fn the_rings_compliant_latches_peak_in_proportion_to_their_closing_speeds() {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -528,41 +538,21 @@ fn the_rings_compliant_latches_peak_in_proportion_to_their_closing_speeds() {
     assert_eq!(radial, 36);
     assert_eq!(sim.solver_stats().fallbacks.latch_without_compliance, 36);
     assert_eq!(ratios.len(), 54);
-    // The peak is the force at contact c ldot_i plus what the one mode adds
-    // after it: (peak - c ldot_i) / ldot_i = k q + c (q' - q'(0)) over q'(0)
-    // at the peak, one number for every latch. Latches congruent under the
-    // ring's symmetry (one family: O_diag*, I_diag*, C*_diag) agree to
-    // roundoff; across families to first order only: l_i'' = (A_i n) q'' +
-    // (|v_b - v_a|^2 - ldot_i^2) / l_i, whose convective part is not
-    // proportional to A_i n (measured: 1.057, 1.079, 1.086 N s/m, 2.8 %).
-    // (Latches engaging each on its own mass would differ by their own
-    // k - c^2 w_i.) "Roundoff" here is that of ~12 000 steps of
-    // near-singular solves: 1e-8 of the excess (measured 1.2e-9 with the
-    // ledger's step-size control on, below 1e-9 before it), 7 orders below
-    // the families' 2.8 %.
+    // The peak at contact, c ldot_i, for every latch: to roundoff of the
+    // closing speed, and at the instant of contact.
     let family = |n: &str| n.replace(|ch: char| ch.is_ascii_digit(), "");
-    let excess: Vec<(String, f64)> = ratios.iter().map(|(n, r)| (n.clone(), r - c)).collect();
-    let e0 = excess[0].1;
-    println!(
-        "peak / closing speed {:.9} N s/m (c = {c}): excess {e0:.6}",
-        ratios[0].1
-    );
-    for (name, e) in &excess {
+    println!("peak / closing speed {:.9} N s/m (c = {c})", ratios[0].1);
+    for (name, r) in &ratios {
         assert!(
-            *e > 0.0,
-            "{name}: the peak is after contact, above c ldot: {e}"
+            (r - c).abs() <= 1e-9 * c,
+            "{name}: peak / closing speed {r}, c {c}"
         );
-        let first = excess
-            .iter()
-            .find(|(n, _)| family(n) == family(name))
-            .unwrap();
-        assert!(
-            (e - first.1).abs() <= 1e-8 * e0,
-            "{name}: {e} vs {} {}",
-            first.0,
-            first.1
+        let ev = s.locks.iter().find(|l| &l.name == name).unwrap();
+        assert_eq!(
+            ev.time_of_peak_s,
+            Some(ev.time_s),
+            "{name}: the peak at contact"
         );
-        assert!((e - e0).abs() <= 0.05 * e0, "{name}: {e} vs {e0}");
     }
     assert_eq!(
         ratios

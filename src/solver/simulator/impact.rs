@@ -378,7 +378,7 @@ impl Simulator {
         let model = &self.model;
         let el = &model.elements[e];
         let (k, c) = el.latch_spring().unwrap_or_default();
-        let Some((_, rate, accel)) = sleeve_motion(model, e, &self.state) else {
+        let Some((gap_m, rate)) = sleeve_motion(model, e, &self.state) else {
             return Ok(false);
         };
         let Some((w, period_s)) = self.latch_mode(e, k)? else {
@@ -398,12 +398,6 @@ impl Simulator {
             rigid_at_s: None,
         });
         let force_n = c * rate;
-        // T' = k ldot + c l'' just after contact: the damper's force c ldot
-        // jumps in and decelerates the sleeve by w c ldot on top of the
-        // motion before (l''-), so T'(0+) = k ldot + c (l''- - w c ldot)
-        // = ldot (k - c^2 w) + c l''-: negative, the peak at contact (c ldot),
-        // for damping ratios above 1/2 (c^2 > k m).
-        let force_rate_n_s = k * rate + c * (accel - w * c * rate);
         let sign = if rate >= 0.0 { 1.0 } else { -1.0 };
         self.state.transients.push(LatchTransient {
             element: e,
@@ -415,7 +409,8 @@ impl Simulator {
             period_s,
             engaged_at_s: t,
             force_n,
-            force_rate_n_s,
+            gap_m,
+            rate_m_s: rate,
             window_max_n: sign * force_n,
             window_min_n: sign * force_n,
             window_start_s: t,
@@ -497,9 +492,14 @@ impl Simulator {
             let swing = tr.window_max_n
                 - tr.window_min_n
                 - (tr.sign * tr.force_n - tr.window_start_force_n).abs();
-            let calm = self.state.locks[tr.event]
-                .peak_force_n
-                .is_some_and(|p| swing <= st.latch_settle_rel * p);
+            // (a force that has not turned: a sleeve that reached its lock
+            // at rest and that the drive loads steadily; with elastic
+            // members its row carries on what the drive adds and reports the
+            // force from then on, `track_latch_rows`)
+            let calm = match self.state.locks[tr.event].peak_force_n {
+                Some(p) => swing <= st.latch_settle_rel * p,
+                None => st.elastic_members && swing <= st.latch_settle_rel * tr.window_max_n.abs(),
+            };
             let overdue = t - tr.engaged_at_s >= st.latch_max_periods * tr.period_s;
             if (window_done && calm) || overdue {
                 due.push(tr.element);
@@ -745,100 +745,84 @@ fn window_over(tr: &LatchTransient, t: f64) -> bool {
     t >= tr.window_start_s + tr.period_s * (1.0 - 1e-12)
 }
 
-/// A sleeve's lock gap g = l - L_lock (m), extension rate ldot (m/s) and
-/// acceleration l'' (m/s^2) at (x, v, a):
-///   l'' = e . (a_b - a_a) + (|v_b - v_a|^2 - (e . (v_b - v_a))^2) / l.
-fn sleeve_motion_at(
-    model: &Model,
-    e: usize,
-    x: &[f64],
-    v: &[f64],
-    a: &[f64],
-) -> Option<(f64, f64, f64)> {
+/// A sleeve's lock gap g = l - L_lock (m) and extension rate ldot (m/s) at
+/// (x, v).
+fn sleeve_motion_at(model: &Model, e: usize, x: &[f64], v: &[f64]) -> Option<(f64, f64)> {
     let el = &model.elements[e];
-    let (g, (l, rate)) = (el.lock_gap(x)?, el.extension(x, v)?);
-    let (ja, jb) = (el.joints()[0], el.joints()[1]);
-    let (mut e_dot_a, mut w2) = (0.0, 0.0);
-    for k in 0..3 {
-        let u = (x[3 * jb + k] - x[3 * ja + k]) / l;
-        e_dot_a += u * (a[3 * jb + k] - a[3 * ja + k]);
-        w2 += (v[3 * jb + k] - v[3 * ja + k]).powi(2);
-    }
-    Some((g, rate, e_dot_a + (w2 - rate * rate) / l))
+    Some((el.lock_gap(x)?, el.extension(x, v)?.1))
 }
 
-fn sleeve_motion(
-    model: &Model,
-    e: usize,
-    s: &crate::solver::state::State,
-) -> Option<(f64, f64, f64)> {
-    sleeve_motion_at(model, e, &s.x, &s.v, &s.a)
+fn sleeve_motion(model: &Model, e: usize, s: &crate::solver::state::State) -> Option<(f64, f64)> {
+    sleeve_motion_at(model, e, &s.x, &s.v)
 }
 
 /// After an accepted step from t0 of length h: a compliant latch's tension
-/// and its rate at the new state, the peak of sign * T (the largest force
-/// through the latch) located inside the step on the cubic Hermite
-/// interpolant of T(t) from the values and rates at both ends, and the
-/// extremes over the current window. A peak is reported once the force has
-/// turned; a later maximum replaces it only where it exceeds it by more than
+/// at the new state, the peak of sign * T (the largest force through the
+/// latch) located inside the step, and the extremes over the current window.
+/// Inside the step the gap is the cubic Hermite interpolant of its values
+/// and rates at both ends,
+///   G(s) = g0 + h r0 s + A s^2 + B s^3,  A = 3 (g1 - g0) - h (2 r0 + r1),
+///   B = h (r0 + r1) - 2 (g1 - g0),
+/// and the tension T(s) = k G(s) + (c / h) G'(s), a cubic in s. It is built
+/// from positions and velocities only: the accelerations of the
+/// average-acceleration rule ring on the stiff modes a sub-step does not
+/// resolve (elastic members), and a rate c l'' taken from them would make
+/// peaks that are not there. A peak is reported once the force has turned;
+/// a later maximum replaces it only where it exceeds it by more than
 /// `settle_rel` (an undamped latch repeats its first peak every period).
-#[allow(clippy::too_many_arguments)]
 pub(super) fn track_transient(
     model: &Model,
     tr: &mut LatchTransient,
     ev: &mut LockEvent,
     t0: f64,
     h: f64,
-    (x, v, a): (&[f64], &[f64], &[f64]),
+    (x, v): (&[f64], &[f64]),
     settle_rel: f64,
 ) {
-    let Some((g, rate, accel)) = sleeve_motion_at(model, tr.element, x, v, a) else {
+    let Some((g1, r1)) = sleeve_motion_at(model, tr.element, x, v) else {
         return;
     };
-    let (k, c) = (tr.stiffness_n_per_m, tr.damping_n_s_per_m);
-    let (f0, fd0) = (tr.sign * tr.force_n, tr.sign * tr.force_rate_n_s);
-    tr.force_n = k * g + c * rate;
-    tr.force_rate_n_s = k * rate + c * accel;
-    let (f1, fd1) = (tr.sign * tr.force_n, tr.sign * tr.force_rate_n_s);
+    let (k, c, sign) = (tr.stiffness_n_per_m, tr.damping_n_s_per_m, tr.sign);
+    let (g0, r0) = (tr.gap_m, tr.rate_m_s);
+    let f0 = sign * tr.force_n;
+    (tr.gap_m, tr.rate_m_s) = (g1, r1);
+    tr.force_n = k * g1 + c * r1;
+    let f1 = sign * tr.force_n;
     tr.window_max_n = tr.window_max_n.max(f1);
     tr.window_min_n = tr.window_min_n.min(f1);
-    // a maximum inside the step: the stationary point of the Hermite cubic
-    //   p(s) = h00 f0 + h10 h fd0 + h01 f1 + h11 h fd1,
-    //   p'(s) = 6 (s^2 - s)(f0 - f1) + h fd0 (3s^2 - 4s + 1) + h fd1 (3s^2 - 2s),
-    // a quadratic in s, where the rate turns from + to -
+    let (qa, qb) = (
+        3.0 * (g1 - g0) - h * (2.0 * r0 + r1),
+        h * (r0 + r1) - 2.0 * (g1 - g0),
+    );
+    // sign * T(s) and sign * dT/ds = sign (k G' + (c/h) G'')
+    let force = |s: f64| {
+        sign * (k * (g0 + s * (h * r0 + s * (qa + s * qb)))
+            + c / h * (h * r0 + s * (2.0 * qa + 3.0 * s * qb)))
+    };
+    let slope = |s: f64| {
+        sign * (k * (h * r0 + s * (2.0 * qa + 3.0 * s * qb)) + c / h * (2.0 * qa + 6.0 * s * qb))
+    };
     // (the force at contact, c ldot, is the peak where it only falls after)
     let mut best = if ev.peak_force_n.is_none() && f0 > f1 {
         (f0, t0)
     } else {
         (f1, t0 + h)
     };
-    if fd0 > 0.0 && fd1 <= 0.0 {
-        let (qa, qb, qc) = (
-            6.0 * (f0 - f1) + 3.0 * h * (fd0 + fd1),
-            -6.0 * (f0 - f1) - 4.0 * h * fd0 - 2.0 * h * fd1,
-            h * fd0,
-        );
-        let p = |s: f64| {
-            let [h00, h10, h01, h11] = super::events::hermite_basis(s);
-            h00 * f0 + h10 * h * fd0 + h01 * f1 + h11 * h * fd1
-        };
-        let roots = if qa.abs() <= 1e-300 {
-            [(qb != 0.0).then(|| -qc / qb), None]
-        } else {
-            let disc = qb * qb - 4.0 * qa * qc;
-            if disc >= 0.0 {
-                let sq = disc.sqrt();
-                [Some((-qb - sq) / (2.0 * qa)), Some((-qb + sq) / (2.0 * qa))]
-            } else {
-                [None, None]
-            }
-        };
-        for s in roots.into_iter().flatten() {
-            if (0.0..=1.0).contains(&s) && p(s) > best.0 {
-                best = (p(s), t0 + s * h);
-            }
+    // maxima inside the step: the roots of the quadratic slope
+    //   sign [3 k B s^2 + (2 k A + 6 c B / h) s + (k h r0 + 2 c A / h)]
+    // where it turns from + to -
+    let (ca, cb, cc) = (
+        3.0 * k * qb,
+        2.0 * k * qa + 6.0 * c * qb / h,
+        k * h * r0 + 2.0 * c * qa / h,
+    );
+    for s in quadratic_roots(ca, cb, cc).into_iter().flatten() {
+        let turns = sign * (2.0 * ca * s + cb) < 0.0;
+        if (0.0..=1.0).contains(&s) && turns && force(s) > best.0 {
+            best = (force(s), t0 + s * h);
         }
     }
+    let fd1 = slope(1.0);
     let turned = ev.peak_force_n.is_some() || fd1 <= 0.0;
     if turned
         && ev
@@ -848,4 +832,23 @@ pub(super) fn track_transient(
         ev.peak_force_n = Some(best.0);
         ev.time_of_peak_s = Some(best.1);
     }
+}
+
+/// The real roots of a s^2 + b s + c (one where a vanishes, none where both
+/// a and b do).
+fn quadratic_roots(a: f64, b: f64, c: f64) -> [Option<f64>; 2] {
+    if a.abs() <= 1e-300 {
+        return [(b != 0.0).then(|| -c / b), None];
+    }
+    let disc = b * b - 4.0 * a * c;
+    if disc < 0.0 {
+        return [None, None];
+    }
+    // (the root of larger magnitude first, the other from the product
+    // c / a: no cancellation)
+    let q = -0.5 * (b + b.signum() * disc.sqrt());
+    if q == 0.0 {
+        return [Some(0.0), None];
+    }
+    [Some(q / a), Some(c / q)]
 }

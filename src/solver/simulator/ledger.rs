@@ -85,7 +85,7 @@ impl Simulator {
         let settle_rel = self.settings.latch_settle_rel;
         for tr in &mut s.transients {
             let ev = &mut s.locks[tr.event];
-            track_transient(m, tr, ev, t0, h, (&s.x, &s.v, &s.a), settle_rel);
+            track_transient(m, tr, ev, t0, h, (&s.x, &s.v), settle_rel);
         }
         self.track_latch_rows();
     }
