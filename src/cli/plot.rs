@@ -657,9 +657,10 @@ fn sleeve_place(name: &str) -> (usize, String) {
 
 /// `simulate --latch-plot`: each sleeve's latch time (y) against its place around
 /// the ring (x: the bay or frame number in its name), one colour per family of
-/// sleeves, the marker's area proportional to the latch impulse. The hardest
-/// latch and the last one are labelled; sleeves that never latched are crosses on
-/// the top edge.
+/// sleeves, the marker's area proportional to the latch's peak force where every
+/// latch reports one (compliant latches), else to its impulse. The hardest
+/// latch by that measure and the last one are labelled; sleeves that never
+/// latched are crosses on the top edge.
 pub fn latch_plot(
     path: &Path,
     title: &str,
@@ -689,10 +690,21 @@ pub fn latch_plot(
         .iter()
         .map(|(_, l)| l.time_s)
         .fold(f64::INFINITY, f64::min);
-    let imp_max = latched
-        .iter()
-        .map(|(_, l)| l.impulse_ns)
-        .fold(0.0, f64::max);
+    // (what a marker's area shows: the peak force where every latch has one)
+    let by_force = !latched.is_empty() && latched.iter().all(|(_, l)| l.peak_force_n.is_some());
+    let size = |l: &crate::solver::LockEvent| {
+        if by_force {
+            l.peak_force_n.unwrap_or(0.0)
+        } else {
+            l.impulse_ns
+        }
+    };
+    let (size_unit, size_name) = if by_force {
+        ("N", "peak force")
+    } else {
+        ("N s", "impulse")
+    };
+    let imp_max = latched.iter().map(|(_, l)| size(l)).fold(0.0, f64::max);
     let k_max = places.iter().map(|p| p.0).max().unwrap_or(0) as f64;
     let y_hi = if t_max > 0.0 { t_max * 1.12 } else { 1.0 };
     let (w, h) = (1100u32, 640u32);
@@ -752,14 +764,14 @@ pub fn latch_plot(
             chart
                 .draw_series(std::iter::once(Circle::new(
                     (x_of(*i), l.time_s),
-                    radius(l.impulse_ns),
+                    radius(size(l)),
                     c.mix(0.55).filled(),
                 )))
                 .map_err(&err)?;
             chart
                 .draw_series(std::iter::once(Circle::new(
                     (x_of(*i), l.time_s),
-                    radius(l.impulse_ns),
+                    radius(size(l)),
                     c.stroke_width(1),
                 )))
                 .map_err(&err)?;
@@ -775,7 +787,7 @@ pub fn latch_plot(
         }
         let hardest = latched
             .iter()
-            .max_by(|a, b| a.1.impulse_ns.total_cmp(&b.1.impulse_ns));
+            .max_by(|a, b| size(a.1).total_cmp(&size(b.1)));
         let last = latched
             .iter()
             .max_by(|a, b| a.1.time_s.total_cmp(&b.1.time_s));
@@ -784,14 +796,22 @@ pub fn latch_plot(
             labels.push((
                 *i,
                 l.time_s,
-                format!(
-                    "hardest: {} {:.3} N s{} at {:.2} s",
-                    l.name,
-                    l.impulse_ns,
-                    l.peak_force_n
-                        .map_or(String::new(), |p| format!(", peak {p:.1} N")),
-                    l.time_s
-                ),
+                match l.peak_force_n.filter(|_| by_force) {
+                    Some(p) => format!(
+                        "hardest: {} peak {p:.1} N at {:.2} s (latched {:.2} s)",
+                        l.name,
+                        l.time_of_peak_s.unwrap_or(l.time_s),
+                        l.time_s
+                    ),
+                    None => format!(
+                        "hardest: {} {:.3} N s{} at {:.2} s",
+                        l.name,
+                        l.impulse_ns,
+                        l.peak_force_n
+                            .map_or(String::new(), |p| format!(", peak {p:.1} N")),
+                        l.time_s
+                    ),
+                },
             ));
         }
         if let Some((i, l)) = last {
@@ -824,7 +844,7 @@ pub fn latch_plot(
                 )))
                 .map_err(&err)?;
         }
-        // Legend: families, impulse scale, never latched.
+        // Legend: families, the markers' scale, never latched.
         let mut y = 40;
         legend
             .draw(&Text::new(
@@ -850,7 +870,7 @@ pub fn latch_plot(
         y += 40;
         legend
             .draw(&Text::new(
-                "area ~ impulse",
+                format!("area ~ {size_name}"),
                 (10, y),
                 style(15, HPos::Left, VPos::Center),
             ))
@@ -866,7 +886,7 @@ pub fn latch_plot(
                 .map_err(&err)?;
             legend
                 .draw(&Text::new(
-                    format!("{:.3} N s", frac * imp_max),
+                    format!("{:.3} {size_unit}", frac * imp_max),
                     (48, y),
                     style(14, HPos::Left, VPos::Center),
                 ))

@@ -110,31 +110,40 @@ fn unknown_joint_is_bad_input_naming_it() {
 }
 
 /// `--latch-plot` names the hardest latch and the last one as the run's own lock
-/// table has them, and counts the latched sleeves; an unwritable file is bad input
-/// (exit 2) found before the run.
+/// table has them, and counts the latched sleeves: by peak force where every
+/// latch has one (the bundled mast's compliant latches), by impulse where not
+/// (the generated mast's rigid ones); an unwritable file is bad input (exit 2)
+/// found before the run.
 #[test]
 fn latch_plot_labels_the_hardest_and_the_last_latch() {
     let dir = temp_dir("latch");
-    let (svg, json) = (dir.join("latches.svg"), dir.join("s.json"));
+    let rigid = dir.join("rigid_mast.toml");
     let out = bin()
-        .arg("simulate")
-        .arg(mast())
-        .arg("--latch-plot")
-        .arg(&svg)
-        .arg("--json")
-        .arg(&json)
+        .args(["generate", "mast", "-o"])
+        .arg(&rigid)
         .output()
         .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    let summary: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
-    let locks = summary["locks"].as_array().unwrap();
-    let by = |key: &str| {
-        locks
+    assert!(out.status.success());
+    for (model, key) in [(mast(), "peak_force_n"), (rigid, "impulse_ns")] {
+        let (svg, json) = (dir.join("latches.svg"), dir.join("s.json"));
+        let out = bin()
+            .arg("simulate")
+            .arg(&model)
+            .arg("--latch-plot")
+            .arg(&svg)
+            .arg("--json")
+            .arg(&json)
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let summary: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+        let locks = summary["locks"].as_array().unwrap();
+        let hardest = locks
             .iter()
             .max_by(|a, b| {
                 a[key]
@@ -142,27 +151,42 @@ fn latch_plot_labels_the_hardest_and_the_last_latch() {
                     .unwrap()
                     .total_cmp(&b[key].as_f64().unwrap())
             })
-            .unwrap()["name"]
-            .as_str()
-            .unwrap()
-            .to_string()
-    };
-    let text = std::fs::read_to_string(&svg).unwrap();
-    assert!(text.starts_with("<svg"));
-    for label in [
-        format!("hardest: {}", by("impulse_ns")),
-        format!("last: {}", by("time_s")),
-        format!("{} of 4 sleeves latched", locks.len()),
-    ] {
-        assert!(text.contains(&label), "the latch plot lacks `{label}`");
+            .unwrap();
+        let last = locks
+            .iter()
+            .max_by(|a, b| {
+                a["time_s"]
+                    .as_f64()
+                    .unwrap()
+                    .total_cmp(&b["time_s"].as_f64().unwrap())
+            })
+            .unwrap();
+        let name = hardest["name"].as_str().unwrap();
+        let text = std::fs::read_to_string(&svg).unwrap();
+        assert!(text.starts_with("<svg"));
+        let by = if key == "peak_force_n" {
+            format!(
+                "hardest: {name} peak {:.1} N",
+                hardest[key].as_f64().unwrap()
+            )
+        } else {
+            assert!(hardest["peak_force_n"].is_null(), "rigid latches");
+            format!("hardest: {name} {:.3} N s", hardest[key].as_f64().unwrap())
+        };
+        let scale = if key == "peak_force_n" {
+            "area ~ peak force"
+        } else {
+            "area ~ impulse"
+        };
+        for label in [
+            by,
+            format!("last: {}", last["name"].as_str().unwrap()),
+            format!("{} of 4 sleeves latched", locks.len()),
+            scale.to_string(),
+        ] {
+            assert!(text.contains(&label), "the latch plot lacks `{label}`");
+        }
     }
-    // the bundled mast's latches are compliant: the hardest one's peak force too
-    let hardest = locks
-        .iter()
-        .find(|l| l["name"] == by("impulse_ns").as_str())
-        .unwrap();
-    let peak = format!("peak {:.1} N", hardest["peak_force_n"].as_f64().unwrap());
-    assert!(text.contains(&peak), "the latch plot lacks `{peak}`");
     let bad = bin()
         .arg("simulate")
         .arg(mast())

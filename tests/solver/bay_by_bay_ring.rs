@@ -260,14 +260,30 @@ fn deploy_to_full_lock(model: Model, until_s: f64, max_accepting: u64) -> Deploy
     let reference = model.reference.clone().unwrap();
     // Elastic members end stretched by the drive's preload: strain at most
     // the motor's tension limit over EA (60 N / 6e6 N = 1e-5), so the
-    // deployed shape is the reference to that strain, not to roundoff.
+    // deployed shape is the reference to that strain, not to roundoff. A
+    // sleeve with a compliant latch is its tube in series with the latch:
+    // per metre 1/EA + 1/(k L) (2e5 N/m latches on 0.78-1.07 m sleeves:
+    // 6.4e-6 per N, 38 times the tube's).
     let strain = if model.solver.elastic_members {
+        let reference = model.reference.as_ref().unwrap();
+        let at = |j: usize| [reference[3 * j], reference[3 * j + 1], reference[3 * j + 2]];
+        let latch_per_m = model
+            .elements
+            .iter()
+            .filter_map(|el| {
+                let (k, _) = el.latch_spring()?;
+                let (a, b) = (at(el.joints()[0]), at(el.joints()[1]));
+                let l =
+                    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt();
+                Some(1.0 / (k * l))
+            })
+            .fold(0.0, f64::max);
         model
             .cables
             .iter()
             .map(|c| c.max_tension_n)
             .fold(0.0, f64::max)
-            / model.axial_stiffness_n
+            * (1.0 / model.axial_stiffness_n + latch_per_m)
     } else {
         0.0
     };

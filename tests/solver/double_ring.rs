@@ -69,19 +69,27 @@ fn bundled_models_are_what_generate_writes() {
         )
         .unwrap()
     };
-    // `generate ring`: the bay-by-bay ring
+    // `generate ring --latch-stiffness 2e5 --latch-damping 300`: the
+    // bay-by-bay ring with the mast's compliant latches (README, Bundled
+    // models), so every latch reports its peak force
+    let latch = Some(truss_deploy::model::generate::LatchParams {
+        stiffness_n_per_m: 2e5,
+        damping_n_s_per_m: 300.0,
+    });
     assert_eq!(
         read("double_ring.toml"),
-        ring(&RingParams::bay_by_bay()).unwrap().to_toml()
+        ring(&RingParams {
+            latch: latch.clone(),
+            ..RingParams::bay_by_bay()
+        })
+        .unwrap()
+        .to_toml()
     );
     let text = read("double_ring_synchronized.toml");
     // the synchronized ring states its compliant latches (README, Bundled
     // models: `generate ring --sync --latch-stiffness 2e5 --latch-damping 300`)
     let bundled = RingParams {
-        latch: Some(truss_deploy::model::generate::LatchParams {
-            stiffness_n_per_m: 2e5,
-            damping_n_s_per_m: 300.0,
-        }),
+        latch,
         ..RingParams::synchronized()
     };
     assert_eq!(text, ring(&bundled).unwrap().to_toml());
