@@ -12,6 +12,15 @@ fn mast() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("models/pantograph_mast.toml")
 }
 
+/// Asserts that a run exited 0, showing its stderr where not.
+fn succeeded(out: &std::process::Output) {
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+}
+
 fn temp_dir(tag: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("truss-deploy-plots-{tag}-{}", std::process::id()));
     std::fs::create_dir_all(&d).unwrap();
@@ -31,11 +40,7 @@ fn plot_and_snapshots_are_svg_with_the_joints() {
         .arg(&snaps)
         .output()
         .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    succeeded(&out);
     for p in [&plot, &snaps] {
         let text = std::fs::read_to_string(p).unwrap();
         assert!(
@@ -74,11 +79,7 @@ fn plot_without_joints_picks_some() {
         .arg(&plot)
         .output()
         .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    succeeded(&out);
     let text = std::fs::read_to_string(&plot).unwrap();
     assert!(
         text.starts_with("<svg") && text.contains("R4"),
@@ -135,11 +136,7 @@ fn latch_plot_labels_the_hardest_and_the_last_latch() {
             .arg(&json)
             .output()
             .unwrap();
-        assert!(
-            out.status.success(),
-            "{}",
-            String::from_utf8_lossy(&out.stderr)
-        );
+        succeeded(&out);
         let summary: serde_json::Value =
             serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
         let locks = summary["locks"].as_array().unwrap();

@@ -373,7 +373,6 @@ impl Core {
         // (whether the friction blend was in play when Newton started: the
         // Newton gain then measures it, not only a stiff spring's)
         let mut newton_for_friction = false;
-        let mut dbg: Vec<String> = Vec::new();
         for _ in 0..st.newmark_max_iterations {
             self.stats.newmark_iterations += 1;
             self.newmark_update(s, h);
@@ -388,7 +387,6 @@ impl Core {
             // infinite; Newton iterates do not contract geometrically: their
             // error is taken as the change)
             let rho = change / last_change;
-            dbg.push(format!("{}{:.1e}/{:.0e}", if newton {"N"} else if mode == SolveMode::Basic {""} else {"M"}, change, scale));
             let error = if !newton && rho > 0.0 && rho < st.newmark_rho_max {
                 (st.newmark_rho_safety * rho / (1.0 - rho) * change).min(change)
             } else {
@@ -483,7 +481,6 @@ impl Core {
             }
         }
         self.newton_last = false;
-        eprintln!("DBGNM t={:.5} h={:.2e} lag={} {}", s.t_s, h, self.lagged_friction, dbg.join(" "));
         Err(SolverError::NoConvergence { t_s: s.t_s + h })
     }
 }
