@@ -397,6 +397,8 @@ impl Simulator {
             time_of_peak_s: None,
             rigid_at_s: None,
         });
+        // (the gap is zero at engagement to the latch search's tolerance,
+        // `latch_tol_m`: the force there is the damper's, c ldot)
         let force_n = c * rate;
         let sign = if rate >= 0.0 { 1.0 } else { -1.0 };
         self.state.transients.push(LatchTransient {
@@ -475,8 +477,12 @@ impl Simulator {
     /// last period the force swung by at most `latch_settle_rel` of its
     /// peak beyond its net change (max - min - |T_end - T_start|: a
     /// vibration swings, a load the drive raises steadily does not), or
-    /// `latch_max_periods` have passed (a counted fallback). Returns how
-    /// many turned rigid.
+    /// `latch_max_periods` have passed (a counted fallback). With elastic
+    /// members a latch whose force has not turned (no peak yet: it reached
+    /// its lock nearly at rest and the drive loads it steadily) settles on
+    /// the same swing test against its largest force in the window; its row
+    /// then carries the load and reports its force (`track_latch_rows`).
+    /// Returns how many turned rigid.
     pub(super) fn settle_transients(&mut self) -> Result<usize, SolverError> {
         if self.state.transients.is_empty() {
             return Ok(0);

@@ -280,7 +280,9 @@ impl Core {
     }
 
     /// w = (I - G') x for basis vector `j` into basis vector `j + 1`
-    /// (unnormalized); G' x = P M_eff^-1 dQ/dV (h/2 x).
+    /// (unnormalized); G' x = P M_eff^-1 (dQ/dV (h/2 x) + dQ/dX (h^2/4 x)):
+    /// the friction's blend, the compliant elements' springs and the
+    /// engaged compliant latches.
     fn newton_apply(&mut self, model: &Model, h: f64, j: usize) -> Result<(), SolverError> {
         let nw = &mut self.newton;
         let n = nw.n;
