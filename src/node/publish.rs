@@ -164,10 +164,8 @@ impl View {
                     pos.push(len);
                     vel.push(rate);
                     let force = if s.locked.get(*e).copied().unwrap_or(false) {
-                        jac.blocks
-                            .iter()
-                            .find(|b| b.element == *e)
-                            .and_then(|b| lambda.get(b.row0))
+                        jac.first_row_of(*e)
+                            .and_then(|r| lambda.get(r))
                             .map(|l| -l)
                             .unwrap_or(0.0)
                     } else {

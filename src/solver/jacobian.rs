@@ -158,6 +158,15 @@ impl Jacobian {
         m
     }
 
+    /// The first global row of an element's block; None where the element
+    /// has no rows in the pattern (a sleeve not latched).
+    pub fn first_row_of(&self, element: usize) -> Option<usize> {
+        self.blocks
+            .iter()
+            .find(|b| b.element == element)
+            .map(|b| b.row0)
+    }
+
     /// The element and its local row for a global row.
     pub fn row_owner(&self, row: usize) -> (usize, usize) {
         let b = self

@@ -324,10 +324,8 @@ impl Simulator {
                 continue;
             }
             let Some(f) = jac
-                .blocks
-                .iter()
-                .find(|b| b.element == e)
-                .and_then(|b| s.lambda.get(b.row0))
+                .first_row_of(e)
+                .and_then(|r| s.lambda.get(r))
                 .map(|l| l.abs())
             else {
                 continue;
@@ -687,13 +685,8 @@ impl Simulator {
         let jumps = elements
             .iter()
             .map(|&e| {
-                let b = core
-                    .jac
-                    .blocks
-                    .iter()
-                    .find(|b| b.element == e)
-                    .expect("latched element has a row");
-                let (mu, rate) = (core.mu[b.row0], core.r[b.row0]);
+                let row = core.jac.first_row_of(e).expect("latched element has a row");
+                let (mu, rate) = (core.mu[row], core.r[row]);
                 (mu, 0.5 * mu * rate, rate)
             })
             .collect();
