@@ -214,11 +214,11 @@ impl Core {
         // the last step best (kinetic norm) is taken.
         if self.prev_h == Some(h) && self.prev_h2 == Some(h) {
             // (A_n and the step starts before it: a_prev = A_{n-1}, ...)
-            let four = self.prev_h3 == Some(h) && self.prev_h4 == Some(h);
             let three = self.prev_h3 == Some(h);
-            let (mut smooth_miss, mut ring_miss, mut parity_miss) = (0.0, 0.0, f64::INFINITY);
+            let four = three && self.prev_h4 == Some(h);
+            let (mut smooth_miss, mut ring_miss) = (0.0, 0.0);
+            let mut parity_miss = if four { 0.0 } else { f64::INFINITY };
             if three {
-                parity_miss = if four { 0.0 } else { f64::INFINITY };
                 for i in 0..self.a_guess.len() {
                     let (p1, p2, p3) = (self.a_prev[i], self.a_prev2[i], self.a_prev3[i]);
                     let smooth = 3.0 * p1 - 3.0 * p2 + p3 - s.a[i];
@@ -431,14 +431,7 @@ impl Core {
             if friction
                 || (stiff
                     && self.element_springs.max_gain(model, &self.x, h).max(
-                        super::springs::add_latch_spring_derivative(
-                            model,
-                            &self.springs,
-                            &self.x,
-                            h,
-                            None,
-                            &mut [],
-                        ),
+                        super::springs::latch_springs_max_gain(model, &self.springs, &self.x, h),
                     ) >= st.newmark_newton_trigger)
             {
                 newton_for_friction = friction;

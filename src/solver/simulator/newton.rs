@@ -303,7 +303,7 @@ impl Core {
             &self.springs,
             &self.x,
             h,
-            Some(x),
+            x,
             &mut nw.dq,
         );
         w.copy_from_slice(x);

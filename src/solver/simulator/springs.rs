@@ -205,36 +205,20 @@ impl ElementSprings {
 /// of u: the transverse force T/l (I - u u^T) h^2/4 and the damper's
 /// c (v_b - v_a) . du (at a latch's load and a transient's sub-steps both
 /// are far below the joints' mass; Newton's line search judges every
-/// iterate on the exact residual). Adds it to `dq` and returns the largest
-/// gain of the Newmark map on a latch, (k h^2/4 + c h/2) (1/m_a + 1/m_b)
-/// along u.
+/// iterate on the exact residual). Adds it to `dq`.
 pub fn add_latch_spring_derivative(
     model: &Model,
     springs: &[(usize, f64, f64)],
     x: &[f64],
     h: f64,
-    da: Option<&[f64]>,
+    da: &[f64],
     dq: &mut [f64],
-) -> f64 {
-    let mut max_gain = 0.0f64;
+) {
     for &(e, k, c) in springs {
-        let joints = model.elements[e].joints();
-        let (ja, jb) = (joints[0], joints[1]);
-        let mut u = [0.0; 3];
-        for (k3, u) in u.iter_mut().enumerate() {
-            *u = x[3 * jb + k3] - x[3 * ja + k3];
-        }
-        let l = (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]).sqrt();
-        if l <= 0.0 {
+        let Some((ja, jb, u)) = sleeve_axis(model, e, x) else {
             continue;
-        }
-        u.iter_mut().for_each(|u| *u /= l);
+        };
         let gain = 0.25 * h * h * k + 0.5 * h * c;
-        let inv_mass: f64 = (0..3)
-            .map(|k3| u[k3] * u[k3] * (model.inv_mass[3 * ja + k3] + model.inv_mass[3 * jb + k3]))
-            .sum();
-        max_gain = max_gain.max(gain * inv_mass);
-        let Some(da) = da else { continue };
         let rate: f64 = (0..3)
             .map(|k3| u[k3] * (da[3 * jb + k3] - da[3 * ja + k3]))
             .sum();
@@ -244,12 +228,51 @@ pub fn add_latch_spring_derivative(
             dq[3 * jb + k3] -= f;
         }
     }
+}
+
+/// The largest gain of the Newmark fixed-point map on an engaged compliant
+/// latch at step h, (k h^2/4 + c h/2) u^T (W_a + W_b) u (W the joints'
+/// inverse masses): at 1 and above the latches alone keep the plain
+/// iteration from contracting (as `ElementSprings::max_gain`). 0 with none.
+pub fn latch_springs_max_gain(
+    model: &Model,
+    springs: &[(usize, f64, f64)],
+    x: &[f64],
+    h: f64,
+) -> f64 {
+    let mut max_gain = 0.0f64;
+    for &(e, k, c) in springs {
+        let Some((ja, jb, u)) = sleeve_axis(model, e, x) else {
+            continue;
+        };
+        let inv_mass: f64 = (0..3)
+            .map(|k3| u[k3] * u[k3] * (model.inv_mass[3 * ja + k3] + model.inv_mass[3 * jb + k3]))
+            .sum();
+        max_gain = max_gain.max((0.25 * h * h * k + 0.5 * h * c) * inv_mass);
+    }
     max_gain
+}
+
+/// A sleeve's end joints (a, b) and unit axis u = (X_b - X_a) / l at x;
+/// None at zero length.
+fn sleeve_axis(model: &Model, e: usize, x: &[f64]) -> Option<(usize, usize, [f64; 3])> {
+    let joints = model.elements[e].joints();
+    let (ja, jb) = (joints[0], joints[1]);
+    let mut u = [0.0; 3];
+    for (k3, u) in u.iter_mut().enumerate() {
+        *u = x[3 * jb + k3] - x[3 * ja + k3];
+    }
+    let l = (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]).sqrt();
+    if l <= 0.0 {
+        return None;
+    }
+    u.iter_mut().for_each(|u| *u /= l);
+    Some((ja, jb, u))
 }
 
 #[cfg(test)]
 mod tests {
-    use super::add_latch_spring_derivative;
+    use super::{add_latch_spring_derivative, latch_springs_max_gain};
     use crate::model::generate::{self, LatchParams, MastParams};
 
     /// The latch springs' derivative against central differences of the
@@ -285,7 +308,8 @@ mod tests {
         for &(e, k, c) in &springs {
             // (one spring at a time: the mast's sleeves share joints)
             let mut dq = vec![0.0; n];
-            let gain = add_latch_spring_derivative(&model, &[(e, k, c)], &x, h, Some(&da), &mut dq);
+            add_latch_spring_derivative(&model, &[(e, k, c)], &x, h, &da, &mut dq);
+            let gain = latch_springs_max_gain(&model, &[(e, k, c)], &x, h);
             let el = &model.elements[e];
             let (ja, jb) = (el.joints()[0], el.joints()[1]);
             // (the mast's joints have one mass in every direction)
