@@ -1189,6 +1189,7 @@ impl Writer {
         let my_topic = self.my_topic_name.clone(); // for debugging
 
         let mut start_repair = false;
+        let mut wants_heartbeat = false;
 
         if let Some(reader_proxy) = self.lookup_reader_proxy_mut(reader_guid) {
           if reader_proxy.last_acknack_count == Some(an.count) {
@@ -1241,6 +1242,15 @@ impl Writer {
             }
           }
 
+          // truss-deploy patch (vendor/PATCHES.md, P8): an ACKNACK that
+          // requests nothing from a reader that has not acknowledged all we
+          // hold (a preemptive ACKNACK: Fast DDS repeats one every 70 ms
+          // after matching until it hears a HEARTBEAT) is answered with a
+          // HEARTBEAT at once, so the reader learns what to NACK without
+          // waiting for the periodic one (up to 1 s).
+          wants_heartbeat = an.reader_sn_state.iter().next().is_none()
+            && reader_proxy.all_acked_before <= last_seq;
+
           // if we cannot send more data, we are done.
           // This is to prevent empty "repair data" messages from being sent.
           if reader_proxy.all_acked_before > last_seq {
@@ -1257,6 +1267,9 @@ impl Writer {
         // pending, it also serves what this ACKNACK requested.
         if start_repair {
           self.schedule_repair_data(reader_guid, self.nack_response_delay);
+        }
+        if wants_heartbeat {
+          self.send_heartbeat_to_reader(reader_guid);
         }
 
         // See if we need to respond by GAP message
@@ -1994,29 +2007,7 @@ impl Writer {
           // data (notably builtin SEDP DiscoveredWriterData) is never delivered
           // and the endpoints stay unmatched. Unicast to just the new reader.
           if self.is_reliable() && !self.like_stateless {
-            let new_reader_guid = reader_proxy.remote_reader_guid;
-            let first = self.send_buffer.first_change_sequence_number();
-            let last = self.send_buffer.last_change_sequence_number();
-            let hb_message = MessageBuilder::new()
-              .ts_msg(self.endianness, Some(Timestamp::now()))
-              .heartbeat_msg(
-                self.entity_id(),
-                first,
-                last,
-                self.next_heartbeat_count(),
-                self.endianness,
-                EntityId::UNKNOWN,
-                false, // final_flag: require the reader to respond with ACKNACK
-                false, // liveliness_flag
-              )
-              .add_header_and_build(self.my_guid.prefix);
-            if let Some(rp) = self.readers.get(&new_reader_guid) {
-              self.send_control_to_readers(
-                DeliveryMode::Unicast,
-                hb_message,
-                &mut std::iter::once(rp),
-              );
-            }
+            self.send_heartbeat_to_reader(reader_proxy.remote_reader_guid);
           }
           info!(
             "Matched new remote reader on topic={:?} reader={:?}",
@@ -2054,6 +2045,35 @@ impl Writer {
         });
       }
     } // match
+  }
+
+  /// A HEARTBEAT (final flag clear: the reader answers with an ACKNACK)
+  /// unicast to one matched reader. (truss-deploy patch (vendor/PATCHES.md,
+  /// P8): one function for a new reader's HEARTBEAT and the answer to a
+  /// preemptive ACKNACK.)
+  fn send_heartbeat_to_reader(&mut self, reader_guid: GUID) {
+    let first = self.send_buffer.first_change_sequence_number();
+    let last = self.send_buffer.last_change_sequence_number();
+    let hb_message = MessageBuilder::new()
+      .ts_msg(self.endianness, Some(Timestamp::now()))
+      .heartbeat_msg(
+        self.entity_id(),
+        first,
+        last,
+        self.next_heartbeat_count(),
+        self.endianness,
+        EntityId::UNKNOWN,
+        false, // final_flag: require the reader to respond with ACKNACK
+        false, // liveliness_flag
+      )
+      .add_header_and_build(self.my_guid.prefix);
+    if let Some(rp) = self.readers.get(&reader_guid) {
+      self.send_control_to_readers(
+        DeliveryMode::Unicast,
+        hb_message,
+        &mut std::iter::once(rp),
+      );
+    }
   }
 
   // Update the given reader proxy. Preserve data we are tracking.
