@@ -184,7 +184,21 @@ fn sliding_accel(c: &Cable, k: usize, x: &[f64], v: &[f64], a: &[f64]) -> f64 {
 /// it: dT_j/ds_k = -mu theta_k T_j / s_slip. (Exact without cable inertia;
 /// with it, the inertia term's dependence on sigma is left out: the
 /// derivative only steers an iteration whose residual is exact.)
-pub fn add_friction_derivative(c: &Cable, eval: &CableEval, x: &[f64], dv: &[f64], dq: &mut [f64]) {
+///
+/// With `start_sliding` (the sliding speeds at the step start), a pulley
+/// outside the blend whose direction differs from the start's takes the
+/// secant slope (sigma(s) - sigma(s0)) / (s - s0) instead of 0: from an
+/// iterate saturated on the far side, the blend it crossed since the step
+/// start still steers the direction (the generalized derivative there is
+/// 0, so the Newton step would repeat the plain one and overshoot back).
+pub fn add_friction_derivative(
+    c: &Cable,
+    eval: &CableEval,
+    start_sliding: Option<&[f64]>,
+    x: &[f64],
+    dv: &[f64],
+    dq: &mut [f64],
+) {
     let segs = c.path.len() - 1;
     if segs < 2 || c.friction_mu == 0.0 {
         return;
@@ -199,10 +213,23 @@ pub fn add_friction_derivative(c: &Cable, eval: &CableEval, x: &[f64], dv: &[f64
     let mut cum = 0.0;
     for j in 1..segs {
         // the pulley at path[j], just before segment j
-        let s = eval.sliding_m_s[j - 1];
-        if s.abs() < c.slip_speed_m_s {
-            cum += c.friction_mu * eval.wrap_rad[j - 1] / c.slip_speed_m_s * ds;
-        }
+        let (s, slip) = (eval.sliding_m_s[j - 1], c.slip_speed_m_s);
+        // d sigma / ds: inside the blend 1 / s_slip; outside it 0, or the
+        // secant slope back to the step start's sigma
+        let slope = if s.abs() < slip {
+            1.0 / slip
+        } else if let Some(start) = start_sliding {
+            let s0 = start[j - 1];
+            let (sigma, sigma0) = ((s / slip).clamp(-1.0, 1.0), (s0 / slip).clamp(-1.0, 1.0));
+            if sigma != sigma0 {
+                (sigma - sigma0) / (s - s0)
+            } else {
+                0.0
+            }
+        } else {
+            0.0
+        };
+        cum += c.friction_mu * eval.wrap_rad[j - 1] * slope * ds;
         let gd = g_dot(j);
         ds -= gd;
         let dt = -eval.segment_tension_n[j] * cum;

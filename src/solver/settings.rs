@@ -95,16 +95,18 @@ pub struct SolverSettings {
     pub newmark_newton_curvature: f64,
     /// A sub-step that needed Newton steps and in which a pulley in the
     /// friction blend at its start or end (or on the other side at its end)
-    /// changed its sliding by more than this fraction of its slip speed is
-    /// halved, down to `min_substep_fraction`: the friction's fast transient
-    /// inside the blend (time constant m / (mu theta T / slip speed), ~1e-3 s
-    /// on the double ring) is then resolved instead of stepped over. Stepped
-    /// over, the average-acceleration rule leaves it ringing (the velocity
-    /// along it alternates, decaying by (1 - x) / (1 + x) per step, x = h/2
-    /// times its rate, x ~ 86 for the capstan-hold test), which biases a
-    /// creep and costs the energy ledger its accuracy (rerouted ring: motor
-    /// work 2.1x its dt -> 0 value, balance 3.9e-5 instead of 6e-7). A
-    /// steady creep changes its sliding little per step and steps whole.
+    /// changed its sliding by more than this fraction of its slip speed
+    /// stepped over the friction's fast transient inside the blend (time
+    /// constant m / (mu theta T / slip speed), ~1e-3 s on the double ring).
+    /// The average-acceleration rule leaves such a transient ringing (the
+    /// velocity along it alternates, decaying by (1 - x) / (1 + x) per step,
+    /// x = h/2 times its rate, x ~ 86 for the capstan-hold test), which
+    /// biases a creep (rerouted ring: motor work 2.1x its dt -> 0 value), so
+    /// with elastic members the sub-step is taken again as a backward-Euler
+    /// step (amplification 1 / (1 + 2x): the transient is at rest at its
+    /// end), with rigid members it is halved down to `min_substep_fraction`
+    /// (the transient resolved). A steady creep changes its sliding little
+    /// per step and is not repeated.
     pub blend_change_rel: f64,
     /// Smallest sub-step, as a fraction of the requested step, tried before a
     /// non-converging Newmark iteration is reported.

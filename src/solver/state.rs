@@ -121,12 +121,16 @@ pub struct Energy {
     pub member_strain_energy_j: f64,
     /// Energy elastic members' dampers took (J; `SolverSettings::elastic_members`).
     pub member_damping_loss_j: f64,
+    /// Kinetic energy the backward-Euler steps (`blend_change_rel`) gained
+    /// beyond the forces' trapezoid work, (h/2) (A_{n+1} - A_n)^T M Vbar
+    /// per such step (J; 0 when every step is the average acceleration's).
+    pub integrator_work_j: f64,
 }
 
 impl Energy {
     /// |kinetic - (work in - losses)| divided by the largest energy that flowed.
     pub fn balance_rel_error(&self, kinetic_j: f64) -> f64 {
-        let net = self.cable_work_j + self.gravity_work_j
+        let net = self.cable_work_j + self.gravity_work_j + self.integrator_work_j
             - self.damping_loss_j
             - self.lock_loss_j
             - self.latch_damping_loss_j

@@ -80,7 +80,11 @@ pub struct Fallbacks {
     /// A Newmark iteration did not converge and the sub-step was halved.
     pub substep_halvings: u64,
     /// A sub-step that needed Newton steps went through the friction's fast
-    /// transient in the blend and was halved to resolve it (`blend_change_rel`).
+    /// transient in the blend and was taken again as a backward-Euler step,
+    /// which the transient leaves at rest instead of ringing
+    /// (`blend_change_rel`; elastic members).
+    pub blend_entry_backward_euler: u64,
+    /// ... and was halved to resolve it (rigid members).
     pub blend_entry_halvings: u64,
     /// A trial sub-step made or lost energy no force accounts for
     /// (`substep_energy_rel`) and was halved.
@@ -98,6 +102,9 @@ pub struct Fallbacks {
     /// `newmark_newton_min_step`): the plain iteration went on from the best
     /// iterate, with its own fallbacks.
     pub newmark_newton_failed: u64,
+    /// ... and were retried from the best iterate with the friction's secant
+    /// slopes back to the step start (once per Newmark step).
+    pub newmark_newton_secant: u64,
     /// A stalled Newmark iteration restarted with least-squares solves.
     pub newmark_min_norm: u64,
     /// A stalled Newmark iteration restarted with the friction direction of the step start.
@@ -195,7 +202,7 @@ impl SolverStats {
              {} Newton steps ({} GMRES iterations, {} backtracks), \
              {} factorizations ({} reused, {} probes), {} solves ({:.2} iterations each; {} factored inside, {} with a kept one), \
              {} latch searches ({} trial steps), {} latches ({} within a capture range, {} at their lock once rigid), {} sub-steps cut at contacts, {} halved on their ledger's budget; fallbacks: {} halvings ({} at blend entries, {} for energy, {} accepted making energy, {} over their ledger's budget at the shortest), \
-             {} Newton switches ({} failed), {} Newmark min-norm, {} lagged friction, {} projection min-norm, {} velocity min-norm, \
+             {} blend entries taken again backward-Euler, {} Newton switches ({} failed, {} retried with secant slopes), {} Newmark min-norm, {} lagged friction, {} projection min-norm, {} velocity min-norm, \
              {} refactored, {} re-probed, {} least-squares, {} unconverged solves, \
              {} dips rejected ({} checks failed), {} root searches at their limit ({} search steps redone with basic solves), \
              {} latches captured after a failed sub-step, {} capture-range latches refused, {} latched closing onto every lock, \
@@ -227,8 +234,10 @@ impl SolverStats {
             f.substep_energy_halvings,
             f.substep_energy_accepted,
             f.ledger_budget_exceeded,
+            f.blend_entry_backward_euler,
             f.newmark_newton,
             f.newmark_newton_failed,
+            f.newmark_newton_secant,
             f.newmark_min_norm,
             f.newmark_lagged_friction,
             f.projection_min_norm,

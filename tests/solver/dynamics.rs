@@ -830,6 +830,50 @@ fn a_capstan_hold_creeps_at_the_regularized_speed() {
     }
 }
 
+/// The capstan hold with `[solver] elastic_members` (the supports stay rigid
+/// rows, there are no members): a blend entry is then taken again as a
+/// backward-Euler step instead of being halved (`blend_change_rel`). Oracles:
+/// the closed-form creep speed, as above, and the energy ledger, which books
+/// the backward-Euler steps' own term (h/2) (A_1 - A_0)^T M Vbar from its
+/// formula: a wrong term would leave the balance off by its size.
+#[test]
+fn a_capstan_hold_with_backward_euler_entries_creeps_at_the_regularized_speed() {
+    let (m, g, t, mu, c): (f64, f64, f64, f64, f64) = (1.0, 11.0, 10.0, 0.2, 0.5);
+    for slip in [1e-3, 5e-4] {
+        let u = hanging_mass_creep(m, g, t, mu, slip, c);
+        let text = hanging_mass_model(m, g, t, mu, slip, c)
+            .replace("[settings]", "[solver]\nelastic_members = true\n[settings]");
+        let model = parse(&text, "hold.toml").unwrap().model;
+        let mut sim = Simulator::new(model, Options::default()).unwrap();
+        let dt = 0.05;
+        for _ in 0..20 {
+            sim.step(dt).unwrap();
+        }
+        let (x0, t0) = (sim.state().x[6], sim.state().t_s);
+        let mut v_dev = 0.0f64;
+        for _ in 0..200 {
+            sim.step(dt).unwrap();
+            v_dev = v_dev.max((sim.state().v[6] - u).abs());
+        }
+        let s = sim.state();
+        let rate = (s.x[6] - x0) / (s.t_s - t0);
+        let st = sim.solver_stats();
+        eprintln!(
+            "slip {slip:e}: creep {rate:e} vs {u:e}, max |v - u| {v_dev:e}, integrator work {:e} J; {}",
+            s.energy.integrator_work_j,
+            st.line()
+        );
+        assert!(st.fallbacks.blend_entry_backward_euler > 0, "{st:?}");
+        assert_eq!(st.fallbacks.blend_entry_halvings, 0, "{st:?}");
+        assert!(s.energy.integrator_work_j != 0.0);
+        assert!((rate - u).abs() <= 1e-5 * u, "creep {rate:e} vs {u:e}");
+        assert!(v_dev <= 1e-2 * u, "velocity off the creep by {v_dev:e}");
+        let bal = s.energy.balance_rel_error(s.kinetic_energy_j(sim.model()));
+        assert!(bal < 1e-6, "energy balance {bal:e}");
+        assert_eq!(st.fallbacks.substep_halvings, 0, "{st:?}");
+    }
+}
+
 /// The worst energy error of the frictionless, undamped mast's motion up to
 /// its first latch, |E_k - F (l0 - l)| (the cable's work is exact: the
 /// kinetic energy is a function of the geometry), against the ledger's

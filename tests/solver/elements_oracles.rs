@@ -1086,7 +1086,7 @@ fn friction_derivative_matches_finite_differences_of_the_forces() {
         inside += ev.sliding_m_s.iter().filter(|s| s.abs() < slip).count();
         beyond += ev.sliding_m_s.iter().filter(|s| s.abs() >= slip).count();
         let mut dq = vec![0.0; n];
-        cable::add_friction_derivative(&c, &ev, &x, &dv, &mut dq);
+        cable::add_friction_derivative(&c, &ev, None, &x, &dv, &mut dq);
         let eps = 1e-6;
         let vp: Vec<f64> = v.iter().zip(&dv).map(|(a, b)| a + eps * b).collect();
         let vm: Vec<f64> = v.iter().zip(&dv).map(|(a, b)| a - eps * b).collect();
@@ -1115,6 +1115,83 @@ fn friction_derivative_matches_finite_differences_of_the_forces() {
         inside > 0 && beyond > 0,
         "{inside} inside, {beyond} beyond the blend"
     );
+}
+
+/// The secant form of the friction derivative (the Newton steps' retry,
+/// `add_friction_derivative` with the step start's sliding): where every
+/// pulley is saturated at both ends, the plain derivative is 0, while the
+/// secant one applied to the way back to the start, dv = v0 - v, gives the
+/// force change Q(v0) - Q(v) to first order in mu theta (oracle: the forces
+/// evaluated at both ends). Pulleys that kept their direction add
+/// nothing; at least one pulley crosses its blend in each case.
+#[test]
+fn friction_secant_slope_reaches_back_to_the_step_start() {
+    let x = vec![
+        0.0, 0.0, 0.0, //
+        1.0, 0.2, 0.1, //
+        1.5, 1.1, -0.2, //
+        0.4, 1.8, 0.3, //
+        -0.3, 1.2, 0.9, //
+        0.2, 0.4, 1.4,
+    ];
+    let (n, path) = (x.len(), vec![0, 1, 2, 3, 4, 5]);
+    let (slip, mu) = (1e-3, 1e-3);
+    let c = test_cable(path, mu, 0.0, 0.05, slip);
+    let forces = |v: &[f64]| {
+        let mut ev = CableEval::for_cable(&c);
+        cable::evaluate(&c, 40.0, &x, v, None, &mut ev);
+        let mut q = vec![0.0; n];
+        cable::add_forces(&c, &ev, &x, &mut q);
+        (q, ev)
+    };
+    let mut rng = Rng::new(91);
+    let (mut checked, mut crossed) = (0, 0);
+    for _ in 0..10_000 {
+        if checked == N_CONFIGS {
+            break;
+        }
+        let (v0, v) = (rng.vec(n, 0.5), rng.vec(n, 0.5));
+        let ((q0, ev0), (q, ev)) = (forces(&v0), forces(&v));
+        let saturated = |e: &CableEval| e.sliding_m_s.iter().all(|s| s.abs() > 2.0 * slip);
+        let flips = ev0
+            .sliding_m_s
+            .iter()
+            .zip(&ev.sliding_m_s)
+            .filter(|(a, b)| a.signum() != b.signum())
+            .count();
+        if !(saturated(&ev0) && saturated(&ev)) || flips == 0 {
+            continue;
+        }
+        checked += 1;
+        crossed += flips;
+        let dv: Vec<f64> = v0.iter().zip(&v).map(|(a, b)| a - b).collect();
+        let (mut plain, mut secant) = (vec![0.0; n], vec![0.0; n]);
+        cable::add_friction_derivative(&c, &ev, None, &x, &dv, &mut plain);
+        cable::add_friction_derivative(&c, &ev, Some(&ev0.sliding_m_s), &x, &dv, &mut secant);
+        assert!(
+            plain.iter().all(|d| *d == 0.0),
+            "saturated: no plain derivative"
+        );
+        let want: Vec<f64> = q0.iter().zip(&q).map(|(a, b)| a - b).collect();
+        let scale = want.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        assert!(scale > 0.0);
+        // (the tensions carry e^{-z}, z = sum mu theta_k dsigma_k; linear in
+        // z, the change misses by about z / 2 of itself, |z| <= 2 mu sum theta)
+        let z_max = 2.0 * mu * ev.wrap_rad.iter().sum::<f64>();
+        for i in 0..n {
+            assert!(
+                (secant[i] - want[i]).abs() <= z_max * scale,
+                "coordinate {i}: {} vs {} ({flips} pulleys crossed)",
+                secant[i],
+                want[i]
+            );
+        }
+    }
+    assert_eq!(
+        checked, N_CONFIGS,
+        "too few saturated pairs with a crossing"
+    );
+    assert!(crossed >= N_CONFIGS);
 }
 
 #[test]

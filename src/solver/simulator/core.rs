@@ -46,6 +46,15 @@ pub(super) struct Core {
     /// current iteration takes the friction direction from them.
     pub friction_sliding: Vec<Vec<f64>>,
     pub lagged_friction: bool,
+    /// The Newton steps take the friction's secant slopes back to the step
+    /// start (`cable::add_friction_derivative`): their retry after a failed
+    /// line search.
+    pub newton_secant: bool,
+    /// The trial step is a backward-Euler one (beta = 1/2, gamma = 1) instead
+    /// of the average-acceleration rule (1/4, 1/2): set by the simulator
+    /// where a trial stepped over the friction blend's fast transient
+    /// (`blend_change_rel`).
+    pub backward_euler: bool,
     /// Buffers of the Newton steps of the Newmark iteration.
     pub newton: NewtonWork,
     /// The last Newmark step needed Newton steps and a pulley's sliding
@@ -135,6 +144,8 @@ impl Core {
                 .map(|c| vec![0.0; c.path.len().saturating_sub(2)])
                 .collect(),
             lagged_friction: false,
+            newton_secant: false,
+            backward_euler: false,
             blend_entry: false,
             newton_last: false,
             newton: NewtonWork::new(model.solver.newmark_newton_krylov_max, n, m),
@@ -197,9 +208,32 @@ impl Core {
     }
 
     /// beta = dPhi_{n+1}/dA_{n+1} + tau dPhidot_{n+1}/dA_{n+1} per unit
-    /// of A dA_{n+1}: h^2/4 + tau h/2 (Newmark).
+    /// of A dA_{n+1}: h^2/4 + tau h/2 (Newmark's average acceleration; the
+    /// compliance of a velocity jump and of a latch's effective mass).
     pub fn relaxation_beta(&self, h: f64) -> f64 {
         h * (0.25 * h + 0.5 * self.relaxation_s)
+    }
+
+    /// The same in a trial step under its rule: beta h^2 + tau gamma h.
+    pub fn step_relaxation_beta(&self, h: f64) -> f64 {
+        if self.backward_euler {
+            self.step_gains(h).spring(1.0, self.relaxation_s)
+        } else {
+            self.relaxation_beta(h)
+        }
+    }
+
+    /// What X_{n+1} and V_{n+1} move per unit of A_{n+1} in a trial step of
+    /// length h under its rule (`backward_euler`).
+    pub fn step_gains(&self, h: f64) -> StepGains {
+        if self.backward_euler {
+            StepGains {
+                position_s2: 0.5 * h * h,
+                velocity_s: h,
+            }
+        } else {
+            StepGains::trapezoid(h)
+        }
     }
 
     /// Elastic members at (x, v) with the Jacobian filled there: strain
@@ -285,7 +319,7 @@ impl Core {
         let report = if let Some((h, _)) = self.compliant {
             // D = c / beta: Phi + tau Phidot + c lambda = 0 at the step's
             // end, beta its derivative in A_{n+1} per unit of A A_{n+1}
-            let k = 1.0 / self.relaxation_beta(h);
+            let k = 1.0 / self.step_relaxation_beta(h);
             for (d, c) in self.row_d.iter_mut().zip(&self.row_compliance) {
                 *d = k * c;
             }
@@ -481,4 +515,29 @@ pub(super) struct TrialCopy {
     /// A^T lambda, which the ledger books when the trial is accepted.
     strain_j: f64,
     member_force: Vec<f64>,
+}
+
+/// A Newmark step's X_{n+1} = X_n + h V_n + h^2 ((1/2 - beta) A_n + beta A_{n+1}),
+/// V_{n+1} = V_n + h ((1 - gamma) A_n + gamma A_{n+1}): what X_{n+1} and
+/// V_{n+1} move per unit of A_{n+1}, beta h^2 (s^2) and gamma h (s).
+#[derive(Clone, Copy, Debug)]
+pub struct StepGains {
+    pub position_s2: f64,
+    pub velocity_s: f64,
+}
+
+impl StepGains {
+    /// The average-acceleration rule: beta = 1/4, gamma = 1/2.
+    pub fn trapezoid(h: f64) -> StepGains {
+        StepGains {
+            position_s2: 0.25 * h * h,
+            velocity_s: 0.5 * h,
+        }
+    }
+
+    /// A spring-damper's force change per unit of A_{n+1} along it:
+    /// k beta h^2 + c gamma h.
+    pub fn spring(&self, k: f64, c: f64) -> f64 {
+        k * self.position_s2 + c * self.velocity_s
+    }
 }

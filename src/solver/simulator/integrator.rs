@@ -98,13 +98,14 @@ impl Core {
         self.applied_forces(model, cmd);
         if let Some((h, true)) = self.compliant {
             // Index 3: Phi(X) + tau A V + c lambda = 0 at X, V of A
-            // linearized at the iterate A_g (X, V move by h^2/4 and h/2
-            // per unit A): beta A (A - A_g) + Phi + tau A V + c lambda = 0,
-            // i.e. A A + D lambda = -((Phi + tau A V) / beta - A A_g).
+            // linearized at the iterate A_g (X, V move by beta h^2 and
+            // gamma h per unit A, `StepGains`): b A (A - A_g) + Phi + tau A V
+            // + c lambda = 0 with b = beta h^2 + tau gamma h, i.e.
+            // A A + D lambda = -((Phi + tau A V) / b - A A_g).
             self.jac.residual(model, &self.x, &mut self.row_phi);
             self.jac.mul(&self.v, &mut self.row_rate);
             self.jac.mul(&self.a_guess, &mut self.c);
-            let (tau, beta) = (self.relaxation_s, self.relaxation_beta(h));
+            let (tau, beta) = (self.relaxation_s, self.step_relaxation_beta(h));
             for i in 0..self.c.len() {
                 self.c[i] = (self.row_phi[i] + tau * self.row_rate[i]) / beta - self.c[i];
             }
@@ -114,7 +115,7 @@ impl Core {
                 // members: A A + D lambda = -c with D lambda = -D (Phi + tau A V) / c
                 self.jac.residual(model, &self.x, &mut self.row_phi);
                 self.jac.mul(&self.v, &mut self.row_rate);
-                let k = MEMBER_PIN / self.relaxation_beta(h);
+                let k = MEMBER_PIN / self.step_relaxation_beta(h);
                 for i in 0..self.c.len() {
                     if self.row_member[i] {
                         self.c[i] = k * (self.row_phi[i] + self.relaxation_s * self.row_rate[i]);
@@ -254,16 +255,18 @@ impl Core {
             self.a_guess.copy_from_slice(&s.a);
         }
         // Viscous damping C (diagonal) is taken implicitly: with
-        // V_{n+1} = V* + h/2 A_{n+1}, V* = V_n + h/2 A_n, the damping force -C V_{n+1}
-        // moves to the left: (M + h/2 C) A_{n+1} = Q - C V* + A^T lambda. The
-        // fixed-point iteration then contracts however stiff the damping is.
+        // V_{n+1} = V* + gamma h A_{n+1}, V* = V_n + (1 - gamma) h A_n, the
+        // damping force -C V_{n+1} moves to the left:
+        // (M + gamma h C) A_{n+1} = Q - C V* + A^T lambda. The fixed-point
+        // iteration then contracts however stiff the damping is.
         let c_damp = model.damping_n_s_per_m;
+        let gains = self.step_gains(h);
         for (w, m) in self.inv_mass_eff.iter_mut().zip(&model.mass) {
-            *w = 1.0 / (m + 0.5 * h * c_damp);
+            *w = 1.0 / (m + gains.velocity_s * c_damp);
         }
         self.implicit_h = Some(h);
         for i in 0..self.v_star.len() {
-            self.v_star[i] = s.v[i] + 0.5 * h * s.a[i];
+            self.v_star[i] = s.v[i] + (h - gains.velocity_s) * s.a[i];
         }
         for (dst, src) in self.friction_sliding.iter_mut().zip(&s.cables) {
             dst.copy_from_slice(&src.sliding_m_s);
@@ -319,8 +322,20 @@ impl Core {
     }
 
     /// The trial (x, v) from the step start `s` and A_{n+1} = `a_guess`:
-    /// X_{n+1} = X_n + h V_n + h^2/4 (A_n + A_{n+1}), V_{n+1} = V_n + h/2 (A_n + A_{n+1}).
+    /// X_{n+1} = X_n + h V_n + h^2 ((1/2 - beta) A_n + beta A_{n+1}),
+    /// V_{n+1} = V_n + h ((1 - gamma) A_n + gamma A_{n+1}) (`StepGains`;
+    /// the average-acceleration rule's beta = 1/4, gamma = 1/2:
+    /// X_n + h V_n + h^2/4 (A_n + A_{n+1}), V_n + h/2 (A_n + A_{n+1})).
     fn newmark_update(&mut self, s: &State, h: f64) {
+        if self.backward_euler {
+            // (beta = 1/2, gamma = 1: A_n drops out)
+            for i in 0..self.x.len() {
+                let a1 = self.a_guess[i];
+                self.x[i] = s.x[i] + h * s.v[i] + 0.5 * h * h * a1;
+                self.v[i] = s.v[i] + h * a1;
+            }
+            return;
+        }
         for i in 0..self.x.len() {
             let asum = s.a[i] + self.a_guess[i];
             self.x[i] = s.x[i] + h * s.v[i] + 0.25 * h * h * asum;
@@ -365,11 +380,15 @@ impl Core {
         let cmd = &s.cable_tension_cmd_n;
         let amax = s.a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         self.lagged_friction = false;
+        self.newton_secant = false;
         self.blend_entry = false;
         let mut mode = base;
         let (mut last_change, mut stalls) = (f64::INFINITY, 0);
         let (mut best_change, mut no_progress) = (f64::INFINITY, 0);
         let (mut newton, mut tried_newton) = (false, false);
+        // (Newton restarts at the next iterate: the secant retry)
+        let mut restart_newton = false;
+        let gains = self.step_gains(h);
         // (whether the friction blend was in play when Newton started: the
         // Newton gain then measures it, not only a stiff spring's)
         let mut newton_for_friction = false;
@@ -409,11 +428,18 @@ impl Core {
                 if self.newton_advance(model, h, st)? {
                     continue;
                 }
-                // (the line search failed: on with the plain iteration from
-                // the best iterate, and its stall fallbacks)
+                // (the line search failed: once more with the friction's
+                // secant slopes where it steered the Newton steps, else on
+                // with the plain iteration from the best iterate, and its
+                // stall fallbacks)
                 self.stats.fallbacks.newmark_newton_failed += 1;
                 newton = false;
                 self.newton_best();
+                if newton_for_friction && !self.newton_secant {
+                    self.newton_secant = true;
+                    self.stats.fallbacks.newmark_newton_secant += 1;
+                    (tried_newton, restart_newton) = (false, true);
+                }
                 (last_change, stalls) = (f64::INFINITY, 0);
                 (best_change, no_progress) = (f64::INFINITY, 0);
                 continue;
@@ -424,14 +450,20 @@ impl Core {
             // floor of the solves: that is the least-squares restart's)
             // (from the first iterate where the last Newmark step needed
             // Newton: the plain iterates would run off to a saturated side)
-            let stiff = (rho >= st.newmark_newton_trigger || self.newton_last)
+            let stiff = (rho >= st.newmark_newton_trigger || self.newton_last || restart_newton)
                 && !self.lagged_friction
                 && !tried_newton;
+            restart_newton = false;
             let friction = stiff && self.friction_blend_active(model);
             if friction
                 || (stiff
-                    && self.element_springs.max_gain(model, &self.x, h).max(
-                        super::springs::latch_springs_max_gain(model, &self.springs, &self.x, h),
+                    && self.element_springs.max_gain(model, &self.x, gains).max(
+                        super::springs::latch_springs_max_gain(
+                            model,
+                            &self.springs,
+                            &self.x,
+                            gains,
+                        ),
                     ) >= st.newmark_newton_trigger)
             {
                 newton_for_friction = friction;

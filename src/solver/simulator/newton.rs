@@ -24,6 +24,13 @@
 //! decreases (a line search on a residual that is exact: only the step's
 //! direction uses the approximate derivative). The converged A is that of
 //! the plain iteration: the same equations, the same friction law.
+//!
+//! Where many pulleys cross their blends at once (a long cable starting to
+//! slide), the iterates can alternate between the two saturated sides, where
+//! the derivative of the blend is 0 and the Newton direction is the plain
+//! step; the line search then fails. The Newton steps are retried once from
+//! the best iterate with each crossed pulley's secant slope back to the step
+//! start (`newton_secant`, counted as `fallbacks.newmark_newton_secant`).
 
 use super::core::Core;
 use crate::solver::cable;
@@ -280,29 +287,34 @@ impl Core {
     }
 
     /// w = (I - G') x for basis vector `j` into basis vector `j + 1`
-    /// (unnormalized); G' x = P M_eff^-1 (dQ/dV (h/2 x) + dQ/dX (h^2/4 x)):
+    /// (unnormalized); G' x = P M_eff^-1 (dQ/dV (gamma h x) + dQ/dX (beta h^2 x))
+    /// (h/2 and h^2/4 for the average acceleration, `StepGains`):
     /// the friction's blend, the compliant elements' springs and the
     /// engaged compliant latches.
     fn newton_apply(&mut self, model: &Model, h: f64, j: usize) -> Result<(), SolverError> {
+        let gains = self.step_gains(h);
         let nw = &mut self.newton;
         let n = nw.n;
         let (done, rest) = nw.basis.split_at_mut((j + 1) * n);
         let x = &done[j * n..];
         let w = &mut rest[..n];
         for i in 0..n {
-            nw.dv[i] = 0.5 * h * x[i];
+            nw.dv[i] = gains.velocity_s * x[i];
         }
         nw.dq.fill(0.0);
         for (ci, c) in model.cables.iter().enumerate() {
-            cable::add_friction_derivative(c, &self.cables[ci], &self.x, &nw.dv, &mut nw.dq);
+            let start = self
+                .newton_secant
+                .then_some(self.friction_sliding[ci].as_slice());
+            cable::add_friction_derivative(c, &self.cables[ci], start, &self.x, &nw.dv, &mut nw.dq);
         }
         self.element_springs
-            .add_force_derivative(model, h, x, &mut nw.dq);
+            .add_force_derivative(model, gains, x, &mut nw.dq);
         super::springs::add_latch_spring_derivative(
             model,
             &self.springs,
             &self.x,
-            h,
+            gains,
             x,
             &mut nw.dq,
         );

@@ -8,6 +8,7 @@
 //! energy 1/2 k |Phi|^2 and dissipates c |A Xdot|^2 (stage `ledger`). The
 //! buffers are made once, with the model.
 
+use super::core::StepGains;
 use crate::solver::elements::ElementSpring;
 use crate::solver::model::Model;
 
@@ -91,12 +92,12 @@ impl ElementSprings {
         }
     }
 
-    /// The largest gain of the Newmark fixed-point map on a spring row at
-    /// step h, (h^2/4) k w + (h/2) c w, with w = sum A_j^2 / m_j the row's
+    /// The largest gain of the Newmark fixed-point map on a spring row in a
+    /// step of `gains` (beta h^2, gamma h), (beta h^2 k + gamma h c) w, with w = sum A_j^2 / m_j the row's
     /// inverse mass over its free joints (a bound on the constrained one):
     /// at 1 and above the springs alone keep the plain iteration from
     /// contracting. 0 without compliant elements.
-    pub fn max_gain(&mut self, model: &Model, x: &[f64], h: f64) -> f64 {
+    pub fn max_gain(&mut self, model: &Model, x: &[f64], gains: StepGains) -> f64 {
         let mut gain = 0.0f64;
         for w in &mut self.work {
             let el = &model.elements[w.element];
@@ -110,7 +111,7 @@ impl ElementSprings {
                     .enumerate()
                     .map(|(col, a)| a * a * model.inv_mass[3 * joints[col / 3] + col % 3])
                     .sum();
-                gain = gain.max((0.25 * h * h * k + 0.5 * h * c) * inv_mass);
+                gain = gain.max(gains.spring(k, c) * inv_mass);
             }
         }
         gain
@@ -132,18 +133,25 @@ impl ElementSprings {
     }
 
     /// Adds the springs' force change along a change dA of the Newmark
-    /// iterate's accelerations to `dq`: with dX = h^2/4 dA and dV = h/2 dA,
-    ///     dQ = -A^T (k A dX + c A dV) = -(k h^2/4 + c h/2) A^T A dA,
+    /// iterate's accelerations to `dq`: with dX = beta h^2 dA and
+    /// dV = gamma h dA (`gains`; h^2/4 and h/2 for the average acceleration),
+    ///     dQ = -A^T (k A dX + c A dV) = -(k beta h^2 + c gamma h) A^T A dA,
     /// at the Jacobian of the last force evaluation (the geometric term
     /// (dA^T/dX) (k Phi + c A Xdot) is left out: this is the Newton
     /// direction's derivative, whose residual is exact); a unilateral row
     /// whose force was 0 there adds none.
-    pub fn add_force_derivative(&self, model: &Model, h: f64, da: &[f64], dq: &mut [f64]) {
+    pub fn add_force_derivative(
+        &self,
+        model: &Model,
+        gains: StepGains,
+        da: &[f64],
+        dq: &mut [f64],
+    ) {
         for w in &self.work {
             let joints = model.elements[w.element].joints();
             let width = 3 * joints.len();
             let (k, c) = (w.spring.stiffness_n_per_m, w.spring.damping_n_s_per_m);
-            let gain = 0.25 * h * h * k + 0.5 * h * c;
+            let gain = gains.spring(k, c);
             for r in 0..w.spring.rows {
                 if w.spring.unilateral && row_force(&w.spring, w.phi[r], w.rate[r]) == 0.0 {
                     continue;
@@ -200,7 +208,8 @@ impl ElementSprings {
 /// The engaged compliant latches of a transient, each (element, k, c): the
 /// tension T = k g + c gdot along the sleeve's unit axis u (`Core::springs`).
 /// Its derivative per unit change dA of the accelerations (X and V move by
-/// h^2/4 and h/2 per unit A): dT = (k h^2/4 + c h/2) u . (dA_b - dA_a),
+/// beta h^2 and gamma h per unit A, `gains`):
+/// dT = (k beta h^2 + c gamma h) u . (dA_b - dA_a),
 /// pulling a by dT u and b by -dT u. Left out are the terms from the turn
 /// of u: the transverse force T/l (I - u u^T) h^2/4 and the damper's
 /// c (v_b - v_a) . du (at a latch's load and a transient's sub-steps both
@@ -210,7 +219,7 @@ pub fn add_latch_spring_derivative(
     model: &Model,
     springs: &[(usize, f64, f64)],
     x: &[f64],
-    h: f64,
+    gains: StepGains,
     da: &[f64],
     dq: &mut [f64],
 ) {
@@ -218,7 +227,7 @@ pub fn add_latch_spring_derivative(
         let Some((ja, jb, u)) = sleeve_axis(model, e, x) else {
             continue;
         };
-        let gain = 0.25 * h * h * k + 0.5 * h * c;
+        let gain = gains.spring(k, c);
         let rate: f64 = (0..3)
             .map(|k3| u[k3] * (da[3 * jb + k3] - da[3 * ja + k3]))
             .sum();
@@ -231,14 +240,14 @@ pub fn add_latch_spring_derivative(
 }
 
 /// The largest gain of the Newmark fixed-point map on an engaged compliant
-/// latch at step h, (k h^2/4 + c h/2) u^T (W_a + W_b) u (W the joints'
+/// latch in a step of `gains`, (k beta h^2 + c gamma h) u^T (W_a + W_b) u (W the joints'
 /// inverse masses): at 1 and above the latches alone keep the plain
 /// iteration from contracting (as `ElementSprings::max_gain`). 0 with none.
 pub fn latch_springs_max_gain(
     model: &Model,
     springs: &[(usize, f64, f64)],
     x: &[f64],
-    h: f64,
+    gains: StepGains,
 ) -> f64 {
     let mut max_gain = 0.0f64;
     for &(e, k, c) in springs {
@@ -248,7 +257,7 @@ pub fn latch_springs_max_gain(
         let inv_mass: f64 = (0..3)
             .map(|k3| u[k3] * u[k3] * (model.inv_mass[3 * ja + k3] + model.inv_mass[3 * jb + k3]))
             .sum();
-        max_gain = max_gain.max((0.25 * h * h * k + 0.5 * h * c) * inv_mass);
+        max_gain = max_gain.max(gains.spring(k, c) * inv_mass);
     }
     max_gain
 }
@@ -272,7 +281,7 @@ fn sleeve_axis(model: &Model, e: usize, x: &[f64]) -> Option<(usize, usize, [f64
 
 #[cfg(test)]
 mod tests {
-    use super::{add_latch_spring_derivative, latch_springs_max_gain};
+    use super::{add_latch_spring_derivative, latch_springs_max_gain, StepGains};
     use crate::model::generate::{self, LatchParams, MastParams};
 
     /// The latch springs' derivative against central differences of the
@@ -308,8 +317,9 @@ mod tests {
         for &(e, k, c) in &springs {
             // (one spring at a time: the mast's sleeves share joints)
             let mut dq = vec![0.0; n];
-            add_latch_spring_derivative(&model, &[(e, k, c)], &x, h, &da, &mut dq);
-            let gain = latch_springs_max_gain(&model, &[(e, k, c)], &x, h);
+            let gains = StepGains::trapezoid(h);
+            add_latch_spring_derivative(&model, &[(e, k, c)], &x, gains, &da, &mut dq);
+            let gain = latch_springs_max_gain(&model, &[(e, k, c)], &x, gains);
             let el = &model.elements[e];
             let (ja, jb) = (el.joints()[0], el.joints()[1]);
             // (the mast's joints have one mass in every direction)
