@@ -1047,6 +1047,27 @@ fn evaluate_accumulates_sliding_and_friction_over_several_pulleys() {
     }
 }
 
+/// Six joints in general position for a cable over four pulleys (path 0..=5).
+fn four_pulley_path_x() -> Vec<f64> {
+    vec![
+        0.0, 0.0, 0.0, //
+        1.0, 0.2, 0.1, //
+        1.5, 1.1, -0.2, //
+        0.4, 1.8, 0.3, //
+        -0.3, 1.2, 0.9, //
+        0.2, 0.4, 1.4,
+    ]
+}
+
+/// The cable's readings at (x, v) with a 40 N motor, and its forces on the joints.
+fn cable_forces_at(c: &Cable, x: &[f64], v: &[f64]) -> (Vec<f64>, CableEval) {
+    let mut ev = CableEval::for_cable(c);
+    cable::evaluate(c, 40.0, x, v, None, &mut ev);
+    let mut q = vec![0.0; x.len()];
+    cable::add_forces(c, &ev, x, &mut q);
+    (q, ev)
+}
+
 /// The Newton steps of the Newmark iteration steer by the derivative of the
 /// cable forces with respect to the joint velocities through the friction
 /// direction's blend (`cable::add_friction_derivative`); oracle: central
@@ -1054,24 +1075,11 @@ fn evaluate_accumulates_sliding_and_friction_over_several_pulleys() {
 /// velocities that put some pulleys inside the blend and some beyond it.
 #[test]
 fn friction_derivative_matches_finite_differences_of_the_forces() {
-    let x = vec![
-        0.0, 0.0, 0.0, //
-        1.0, 0.2, 0.1, //
-        1.5, 1.1, -0.2, //
-        0.4, 1.8, 0.3, //
-        -0.3, 1.2, 0.9, //
-        0.2, 0.4, 1.4,
-    ];
-    let (n, path) = (x.len(), vec![0, 1, 2, 3, 4, 5]);
+    let (x, path) = (four_pulley_path_x(), vec![0, 1, 2, 3, 4, 5]);
+    let n = x.len();
     let slip = 0.3;
     let c = test_cable(path, 0.25, 0.0, 0.05, slip);
-    let forces = |v: &[f64]| {
-        let mut ev = CableEval::for_cable(&c);
-        cable::evaluate(&c, 40.0, &x, v, None, &mut ev);
-        let mut q = vec![0.0; n];
-        cable::add_forces(&c, &ev, &x, &mut q);
-        (q, ev)
-    };
+    let forces = |v: &[f64]| cable_forces_at(&c, &x, v);
     let mut rng = Rng::new(77);
     let (mut inside, mut beyond, mut checked) = (0, 0, 0);
     while checked < 3 * N_CONFIGS {
@@ -1126,24 +1134,11 @@ fn friction_derivative_matches_finite_differences_of_the_forces() {
 /// nothing; at least one pulley crosses its blend in each case.
 #[test]
 fn friction_secant_slope_reaches_back_to_the_step_start() {
-    let x = vec![
-        0.0, 0.0, 0.0, //
-        1.0, 0.2, 0.1, //
-        1.5, 1.1, -0.2, //
-        0.4, 1.8, 0.3, //
-        -0.3, 1.2, 0.9, //
-        0.2, 0.4, 1.4,
-    ];
-    let (n, path) = (x.len(), vec![0, 1, 2, 3, 4, 5]);
+    let (x, path) = (four_pulley_path_x(), vec![0, 1, 2, 3, 4, 5]);
+    let n = x.len();
     let (slip, mu) = (1e-3, 1e-3);
     let c = test_cable(path, mu, 0.0, 0.05, slip);
-    let forces = |v: &[f64]| {
-        let mut ev = CableEval::for_cable(&c);
-        cable::evaluate(&c, 40.0, &x, v, None, &mut ev);
-        let mut q = vec![0.0; n];
-        cable::add_forces(&c, &ev, &x, &mut q);
-        (q, ev)
-    };
+    let forces = |v: &[f64]| cable_forces_at(&c, &x, v);
     let mut rng = Rng::new(91);
     let (mut checked, mut crossed) = (0, 0);
     for _ in 0..10_000 {
