@@ -186,7 +186,7 @@ fn sliding_accel(c: &Cable, k: usize, x: &[f64], v: &[f64], a: &[f64]) -> f64 {
 /// derivative only steers an iteration whose residual is exact.)
 ///
 /// With `start_sliding` (the sliding speeds at the step start), a pulley
-/// outside the blend whose direction differs from the start's takes the
+/// outside the blend whose sigma differs from the start's takes the
 /// secant slope (sigma(s) - sigma(s0)) / (s - s0) instead of 0: from an
 /// iterate saturated on the far side, the blend it crossed since the step
 /// start still steers the direction (the generalized derivative there is
@@ -214,22 +214,23 @@ pub fn add_friction_derivative(
     for j in 1..segs {
         // the pulley at path[j], just before segment j
         let (s, slip) = (eval.sliding_m_s[j - 1], c.slip_speed_m_s);
-        // d sigma / ds: inside the blend 1 / s_slip; outside it 0, or the
-        // secant slope back to the step start's sigma
-        let slope = if s.abs() < slip {
-            1.0 / slip
+        // mu theta d sigma / ds: inside the blend mu theta / s_slip; outside
+        // it 0, or mu theta times the secant slope back to the step start's
+        // sigma (sigma != sigma0 implies s != s0)
+        let gain = if s.abs() < slip {
+            c.friction_mu * eval.wrap_rad[j - 1] / slip
         } else if let Some(start) = start_sliding {
             let s0 = start[j - 1];
             let (sigma, sigma0) = ((s / slip).clamp(-1.0, 1.0), (s0 / slip).clamp(-1.0, 1.0));
             if sigma != sigma0 {
-                (sigma - sigma0) / (s - s0)
+                c.friction_mu * eval.wrap_rad[j - 1] * (sigma - sigma0) / (s - s0)
             } else {
                 0.0
             }
         } else {
             0.0
         };
-        cum += c.friction_mu * eval.wrap_rad[j - 1] * slope * ds;
+        cum += gain * ds;
         let gd = g_dot(j);
         ds -= gd;
         let dt = -eval.segment_tension_n[j] * cum;

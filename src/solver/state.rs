@@ -97,8 +97,9 @@ pub struct MotorState {
 }
 
 /// Energy bookkeeping (J). Balance: kinetic + latch_spring_energy +
-/// element_spring_energy = cable_work + gravity_work - damping_loss -
-/// lock_loss - latch_damping_loss.
+/// element_spring_energy + member_strain_energy = cable_work +
+/// gravity_work + integrator_work - damping_loss - lock_loss -
+/// latch_damping_loss - member_damping_loss.
 #[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
 pub struct Energy {
     /// Work of the motors: motor tension times the cable length reeled in.

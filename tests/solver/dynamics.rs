@@ -859,7 +859,11 @@ fn a_capstan_hold_with_backward_euler_entries_creeps_at_the_regularized_speed() 
         let (st, s) = (sim.solver_stats(), sim.state());
         assert!(st.fallbacks.blend_entry_backward_euler > 0, "{st:?}");
         assert_eq!(st.fallbacks.blend_entry_halvings, 0, "{st:?}");
-        assert!(s.energy.integrator_work_j != 0.0);
+        // (the term is far above what the balance tolerates: left out, the
+        // balance check in `capstan_creep` would fail)
+        let scale = s.energy.scale_j(s.kinetic_energy_j(sim.model()));
+        let term = s.energy.integrator_work_j.abs();
+        assert!(term > 10.0 * 1e-6 * scale, "{term:e} J of {scale:e} J");
     }
 }
 

@@ -316,10 +316,17 @@ impl Core {
     /// forces `q` and the convective term `c`, with the current factorization.
     pub fn solve_accelerations(&mut self, model: &Model) -> Result<(), SolverError> {
         let w = Self::weights(self.implicit_h, &self.inv_mass_eff, model);
-        let report = if let Some((h, _)) = self.compliant {
+        let report = if let Some((h, iterating)) = self.compliant {
             // D = c / beta: Phi + tau Phidot + c lambda = 0 at the step's
             // end, beta its derivative in A_{n+1} per unit of A A_{n+1}
-            let k = 1.0 / self.step_relaxation_beta(h);
+            // (the trial's rule inside the Newmark iteration; a state's
+            // accelerations from scratch take the average acceleration's)
+            let beta = if iterating {
+                self.step_relaxation_beta(h)
+            } else {
+                self.relaxation_beta(h)
+            };
+            let k = 1.0 / beta;
             for (d, c) in self.row_d.iter_mut().zip(&self.row_compliance) {
                 *d = k * c;
             }

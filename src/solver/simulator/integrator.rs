@@ -115,7 +115,7 @@ impl Core {
                 // members: A A + D lambda = -c with D lambda = -D (Phi + tau A V) / c
                 self.jac.residual(model, &self.x, &mut self.row_phi);
                 self.jac.mul(&self.v, &mut self.row_rate);
-                let k = MEMBER_PIN / self.step_relaxation_beta(h);
+                let k = MEMBER_PIN / self.relaxation_beta(h);
                 for i in 0..self.c.len() {
                     if self.row_member[i] {
                         self.c[i] = k * (self.row_phi[i] + self.relaxation_s * self.row_rate[i]);
@@ -411,8 +411,10 @@ impl Core {
             } else {
                 change
             };
+            // (position per unit A: h^2/4, or h^2/2 backward-Euler)
+            let per_a = if self.backward_euler { 0.5 } else { 0.25 };
             if error <= st.newmark_tol_rel * scale
-                || 0.25 * error * h * h <= st.newmark_tol_position_m
+                || per_a * error * h * h <= st.newmark_tol_position_m
             {
                 self.a_guess.copy_from_slice(&self.a);
                 // (only where the blend was stiff: a Newton switch at a stall
@@ -438,7 +440,7 @@ impl Core {
                 if newton_for_friction && !self.newton_secant {
                     self.newton_secant = true;
                     self.stats.fallbacks.newmark_newton_secant += 1;
-                    (tried_newton, restart_newton) = (false, true);
+                    restart_newton = true;
                 }
                 (last_change, stalls) = (f64::INFINITY, 0);
                 (best_change, no_progress) = (f64::INFINITY, 0);
@@ -452,7 +454,7 @@ impl Core {
             // Newton: the plain iterates would run off to a saturated side)
             let stiff = (rho >= st.newmark_newton_trigger || self.newton_last || restart_newton)
                 && !self.lagged_friction
-                && !tried_newton;
+                && (!tried_newton || restart_newton);
             restart_newton = false;
             let friction = stiff && self.friction_blend_active(model);
             if friction

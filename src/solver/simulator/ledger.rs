@@ -10,8 +10,8 @@
 //!   latch damper  sum_latches c 1/2 (ldot_old + ldot_new) dl,  spring 1/2 k g^2
 //!   compliant elements  damper c 1/2 (rate_old + rate_new) . dPhi, spring 1/2 k |Phi|^2
 //!   backward-Euler steps  (h/2) (A_new - A_old)^T M Vbar  (`integrator_work_j`)
-//! so that kinetic + latch spring = cable + gravity - damping - latch losses
-//! (the balance `Energy::balance_rel_error` checks).
+//! so that kinetic + latch spring = cable + gravity + backward-Euler term
+//! - damping - latch losses (the balance `Energy::balance_rel_error` checks).
 //!
 //! The trapezoid books exactly what the average-acceleration rule does:
 //! its kinetic energy changes by Vbar^T M dV = Abar^T M dX (Abar, Vbar the
@@ -157,7 +157,7 @@ fn integrator_work_j(m: &Model, s: &State, c: &Core, h: f64) -> f64 {
         return 0.0;
     }
     (0..s.v.len())
-        .map(|i| 0.25 * h * m.mass[i] * (c.a_guess[i] - s.a[i]) * (s.v[i] + c.v[i]))
+        .map(|i| 0.25 * h * m.mass[i] * (c.a[i] - s.a[i]) * (s.v[i] + c.v[i]))
         .sum()
 }
 

@@ -155,6 +155,7 @@ impl Simulator {
         }
         let core = &mut self.core;
         core.prev_h = None;
+        core.backward_euler = false;
         // (a reset in a compliant latch's transient: its spring goes with it)
         core.springs.clear();
         core.waiting.clear();

@@ -1242,13 +1242,16 @@ impl Writer {
             }
           }
 
-          // truss-deploy patch (vendor/PATCHES.md, P8): an ACKNACK that
-          // requests nothing from a reader that has not acknowledged all we
-          // hold (a preemptive ACKNACK: Fast DDS repeats one every 70 ms
-          // after matching until it hears a HEARTBEAT) is answered with a
+          // truss-deploy patch (vendor/PATCHES.md, P8): a preemptive ACKNACK
+          // (base 0 or 1, nothing requested: the reader has nothing yet;
+          // Fast DDS repeats one every 70 ms after matching until it hears a
+          // HEARTBEAT) while the writer holds samples is answered with a
           // HEARTBEAT at once, so the reader learns what to NACK without
-          // waiting for the periodic one (up to 1 s).
-          wants_heartbeat = an.reader_sn_state.iter().next().is_none()
+          // waiting for the periodic one (up to 1 s). (Not an empty ACKNACK
+          // from a reader further on: one reassembling fragments sends those
+          // on every HEARTBEAT, and the two would answer each other.)
+          wants_heartbeat = an.reader_sn_state.base() <= SequenceNumber::from(1)
+            && an.reader_sn_state.iter().next().is_none()
             && reader_proxy.all_acked_before <= last_seq;
 
           // if we cannot send more data, we are done.
