@@ -630,7 +630,7 @@ fn a_12_sided_ring_deploys_to_full_lock_bay_by_bay_and_friction_orders_it() {
 /// inexact. Release: 301 s for both runs, one at a time:
 /// `cargo test --release --test solver bay_by_bay_ring::a_36 -- --ignored`.
 #[test]
-#[ignore = "two runs of 4-8 min each in release; cargo test --release --test solver bay_by_bay_ring::a_36 -- --ignored"]
+#[ignore = "two 36-sided ring deployments, ~1 min in the test profile; CI runs it (.ci/run: slow physics runs)"]
 fn a_36_sided_ring_deploys_to_full_lock_bay_by_bay_and_friction_orders_it() {
     friction_orders_the_bays(generated(36, 0.005), generated(36, 0.02), 0);
 }
