@@ -329,10 +329,11 @@ impl Core {
     fn newmark_update(&mut self, s: &State, h: f64) {
         if self.backward_euler {
             // (beta = 1/2, gamma = 1: A_n drops out)
+            let g = self.step_gains(h);
             for i in 0..self.x.len() {
                 let a1 = self.a_guess[i];
-                self.x[i] = s.x[i] + h * s.v[i] + 0.5 * h * h * a1;
-                self.v[i] = s.v[i] + h * a1;
+                self.x[i] = s.x[i] + h * s.v[i] + g.position_s2 * a1;
+                self.v[i] = s.v[i] + g.velocity_s * a1;
             }
             return;
         }
@@ -411,8 +412,8 @@ impl Core {
             } else {
                 change
             };
-            // (position per unit A: h^2/4, or h^2/2 backward-Euler)
-            let per_a = if self.backward_euler { 0.5 } else { 0.25 };
+            // (position per unit A per h^2: beta, 1/4 or 1/2 backward-Euler)
+            let per_a = self.step_gains(1.0).position_s2;
             if error <= st.newmark_tol_rel * scale
                 || per_a * error * h * h <= st.newmark_tol_position_m
             {
