@@ -634,3 +634,42 @@ fn a_12_sided_ring_deploys_to_full_lock_bay_by_bay_and_friction_orders_it() {
 fn a_36_sided_ring_deploys_to_full_lock_bay_by_bay_and_friction_orders_it() {
     friction_orders_the_bays(generated(36, 0.005), generated(36, 0.02), 0);
 }
+
+/// The 180-sided ring's first 10 s: its cable, over 179 pulleys, sticks in
+/// every pulley's friction blend (a damper far stiffer than a step
+/// resolves), whose accelerations alternate in sign from step to step under
+/// the trapezoidal rule. A step predicted far off pushes the iterates out of
+/// every blend at once, and the Newton steps then wander between the blends'
+/// saturated sides until the step is halved. After a halving the predictor
+/// has the fewest equal steps behind it; it still takes the extrapolation
+/// that would have predicted the last step best (linear or alternating), so
+/// no halving follows. Oracles: the energy ledger and the solver's own
+/// counts (no step halved, no Newton search failed, a handful of iterations
+/// per step).
+#[test]
+fn the_180_sided_ring_steps_through_its_stuck_cable_without_halving() {
+    let model = model_of(&RingParams::bay_by_bay_sized(180));
+    let dt = model.dt_s;
+    let mut sim = Simulator::new(model, Options::default()).unwrap();
+    for _ in 0..200 {
+        sim.step(dt).unwrap();
+    }
+    let (st, s) = (sim.solver_stats(), sim.state());
+    let balance = s.energy.balance_rel_error(s.kinetic_energy_j(sim.model()));
+    println!("balance {balance:.1e}; {}", st.line());
+    assert_eq!(
+        st.accepting_fallbacks(),
+        0,
+        "{:?}",
+        st.accepting_fallbacks_by_kind()
+    );
+    assert_eq!(st.fallbacks.substep_halvings, 0, "{}", st.line());
+    assert_eq!(st.fallbacks.newmark_newton_failed, 0, "{}", st.line());
+    assert!(
+        st.newmark_iterations <= 6 * st.newmark_steps,
+        "{} iterations in {} Newmark steps",
+        st.newmark_iterations,
+        st.newmark_steps
+    );
+    assert!(balance <= 1e-6, "energy balance {balance:e}");
+}

@@ -213,28 +213,43 @@ impl Core {
         // linear along each parity (on the bundled ring it halved the
         // iterations per step). Of these, the one that would have predicted
         // the last step best (kinetic norm) is taken.
-        if self.prev_h == Some(h) && self.prev_h2 == Some(h) {
+        // With only two step starts before A_n (after a shorter step), the
+        // same choice is made between the linear A_{n+1} = 2 A_n - A_{n-1}
+        // and the alternation A_{n+1} = A_{n-1}: taking the quadratic one
+        // unjudged there missed a ringing mode by 8 times its amplitude, the
+        // step failed and was halved, and the history started again (on
+        // the 180-sided ring, every third step).
+        if self.prev_h == Some(h) && self.prev_h2 == Some(h) && self.prev_h3 != Some(h) {
+            let (mut linear_miss, mut alternation_miss) = (0.0, 0.0);
+            for i in 0..self.a_guess.len() {
+                let (a, p1, p2) = (s.a[i], self.a_prev[i], self.a_prev2[i]);
+                linear_miss += model.mass[i] * (2.0 * p1 - p2 - a).powi(2);
+                alternation_miss += model.mass[i] * (p2 - a).powi(2);
+            }
+            let alternating = alternation_miss < linear_miss;
+            for i in 0..self.a_guess.len() {
+                let (a, p1) = (s.a[i], self.a_prev[i]);
+                self.a_guess[i] = if alternating { p1 } else { 2.0 * a - p1 };
+            }
+        } else if self.prev_h == Some(h) && self.prev_h2 == Some(h) {
             // (A_n and the step starts before it: a_prev = A_{n-1}, ...)
-            let three = self.prev_h3 == Some(h);
-            let four = three && self.prev_h4 == Some(h);
+            let four = self.prev_h4 == Some(h);
             let (mut smooth_miss, mut ring_miss) = (0.0, 0.0);
             let mut parity_miss = if four { 0.0 } else { f64::INFINITY };
-            if three {
-                for i in 0..self.a_guess.len() {
-                    let (p1, p2, p3) = (self.a_prev[i], self.a_prev2[i], self.a_prev3[i]);
-                    let smooth = 3.0 * p1 - 3.0 * p2 + p3 - s.a[i];
-                    let ring = p1 + p2 - p3 - s.a[i];
-                    smooth_miss += model.mass[i] * smooth * smooth;
-                    ring_miss += model.mass[i] * ring * ring;
-                    if four {
-                        let parity = 2.0 * p2 - self.a_prev4[i] - s.a[i];
-                        parity_miss += model.mass[i] * parity * parity;
-                    }
+            for i in 0..self.a_guess.len() {
+                let (p1, p2, p3) = (self.a_prev[i], self.a_prev2[i], self.a_prev3[i]);
+                let smooth = 3.0 * p1 - 3.0 * p2 + p3 - s.a[i];
+                let ring = p1 + p2 - p3 - s.a[i];
+                smooth_miss += model.mass[i] * smooth * smooth;
+                ring_miss += model.mass[i] * ring * ring;
+                if four {
+                    let parity = 2.0 * p2 - self.a_prev4[i] - s.a[i];
+                    parity_miss += model.mass[i] * parity * parity;
                 }
             }
             let best = if parity_miss <= ring_miss && parity_miss <= smooth_miss {
                 Predictor::Parity
-            } else if three && ring_miss < smooth_miss {
+            } else if ring_miss < smooth_miss {
                 Predictor::Ringing
             } else {
                 Predictor::Smooth
