@@ -179,36 +179,12 @@ pub struct SolverSettings {
     /// Golden-section and bisection iterations on the step's interpolant
     /// (each shrinks the interval by 0.618 or 0.5).
     pub dip_search_iterations: usize,
-    /// Capture (a counted fallback): where a sub-step fails (its Newmark
-    /// iteration or projection at the shortest sub-step, or a latch search),
-    /// the unlatched sleeve closing on its lock first from within this
-    /// distance latches where it stands, and the sub-step is retried; a
-    /// latch that carries sleeves past their lock by at most this latches
-    /// them too (m; 0 turns the capture off). Real latches capture
-    /// from millimetres; near the ring's flat deployed state the last
-    /// sleeves reach their locks within microseconds of each other, where
-    /// the structure's rows are nearly redundant.
-    pub latch_capture_m: f64,
-    /// ... unless latching it moves a joint farther than this (m): near a
+    /// A capture within a latch's own capture range (`capture_range_m`) is
+    /// refused where latching moves a joint farther than this (m): near a
     /// singular configuration the projection onto a latch's row can move
     /// the joints far from where the motion had them; the capture is then
-    /// undone and the failure stands.
+    /// undone (`latch_range_refused`) and tried again after the next step.
     pub latch_capture_max_move_m: f64,
-    /// Closing onto the locks (a counted fallback, `latch_closed`): a truss
-    /// left rigid, or whose sub-step failed where a capture is tried (the
-    /// Newmark iteration or projection at the shortest sub-step, or a latch
-    /// search) with nothing captured, with every unlatched sleeve within
-    /// this distance of its lock (m; or its latch's capture range, if
-    /// larger) latches them all at once, the projection onto every lock
-    /// length taken as one move (its work booked with the latch loss, the
-    /// velocities jumping onto the latched set: to rest where that is
-    /// rigid), unless that
-    /// move exceeds `latch_capture_max_move_m`. A ring's last bays reach
-    /// their locks together through a state pinned to second order (docs,
-    /// Finding 5), where the rigid model stops a few 1e-5 m short; a real
-    /// ring's hinge clearances and member elasticity close that. 0 turns it
-    /// off.
-    pub latch_close_m: f64,
 
     // --- compliant latches (stages `impact` and `ledger`) ---
     /// Steps per latch period until an engaged compliant latch's force has
@@ -286,9 +262,7 @@ impl Default for SolverSettings {
             root_max_iterations: 100,
             root_bracket_rel: 1e-15,
             dip_search_iterations: 60,
-            latch_capture_m: 1e-5,
             latch_capture_max_move_m: 1e-3,
-            latch_close_m: 1e-4,
             latch_steps_per_period: 128.0,
             latch_settle_steps_per_period: 40.0,
             latch_settle_rel: 1e-3,
@@ -365,19 +339,6 @@ impl SolverSettings {
                     "[solver] {key} = {v}: it must be a finite number > 0"
                 ));
             }
-        }
-        // (0 turns the capture off)
-        if !(self.latch_capture_m.is_finite() && self.latch_capture_m >= 0.0) {
-            return Err(format!(
-                "[solver] latch_capture_m = {}: it must be a finite number >= 0 (0: no capture)",
-                self.latch_capture_m
-            ));
-        }
-        if !(self.latch_close_m.is_finite() && self.latch_close_m >= 0.0) {
-            return Err(format!(
-                "[solver] latch_close_m = {}: it must be a finite number >= 0 (0: no closing)",
-                self.latch_close_m
-            ));
         }
         if !(self.ledger_budget_rel_per_s.is_finite() && self.ledger_budget_rel_per_s >= 0.0) {
             return Err(format!(

@@ -133,17 +133,13 @@ pub struct Fallbacks {
     /// A latch search's trial step whose least-squares iteration did not
     /// converge was redone with basic solves.
     pub latch_search_basic: u64,
-    /// A sleeve closing on its lock from within `latch_capture_m` latched
-    /// where it stood after a failed sub-step (see `SolverSettings`).
+    /// A sleeve that a latch's projection carried past its lock, within its
+    /// latch's capture range, latched with it (`capture_swept`, `capture`).
     pub latch_captured: u64,
     /// A capture within a latch's capture range was refused: its projection
     /// failed or moved a joint farther than `latch_capture_max_move_m`
     /// (the sleeves stay free and are tried again after the next step).
     pub latch_range_refused: u64,
-    /// Sleeves latched by closing the truss onto every lock at once
-    /// (`latch_close_m`): it was rigid, or its sub-step failed, with each
-    /// unlatched sleeve within that of its lock.
-    pub latch_closed: u64,
     /// The accelerations' fixed point with cable inertia stopped at its iteration limit.
     pub consistent_unconverged: u64,
     /// A compliant latch turned rigid at `latch_max_periods` without having
@@ -164,11 +160,11 @@ impl SolverStats {
     /// point stopped at its limit, sub-steps accepted although they made
     /// energy or missed their ledger's budget at the shortest length, and
     /// latches made by moving the truss onto a lock rather than by its
-    /// motion reaching it (captures after a failed sub-step, captures within
-    /// a latch's capture range, closings onto every lock). The others
+    /// motion reaching it (sleeves a latch carried past their lock, captures
+    /// within a latch's capture range). The others
     /// (halvings, restarts, Newton switches, refactorizations, ...) change
     /// the route to a result that meets its tolerance.
-    pub fn accepting_fallbacks_by_kind(&self) -> [(&'static str, u64); 7] {
+    pub fn accepting_fallbacks_by_kind(&self) -> [(&'static str, u64); 6] {
         let f = &self.fallbacks;
         [
             ("unconverged solves", f.solve_unconverged),
@@ -178,9 +174,8 @@ impl SolverStats {
                 "sub-steps over their ledger's budget",
                 f.ledger_budget_exceeded,
             ),
-            ("captures after a failed sub-step", f.latch_captured),
+            ("sleeves captured past their lock", f.latch_captured),
             ("captures within a capture range", self.latch_range_captures),
-            ("closings onto every lock", f.latch_closed),
         ]
     }
 
@@ -205,7 +200,7 @@ impl SolverStats {
              {} blend entries taken again backward-Euler, {} Newton switches ({} failed, {} retried with secant slopes), {} Newmark min-norm, {} lagged friction, {} projection min-norm, {} velocity min-norm, \
              {} refactored, {} re-probed, {} least-squares, {} unconverged solves, \
              {} dips rejected ({} checks failed), {} root searches at their limit ({} search steps redone with basic solves), \
-             {} latches captured after a failed sub-step, {} capture-range latches refused, {} latched closing onto every lock, \
+             {} latches captured past their lock, {} capture-range latches refused, \
              {} inertia fixed points unconverged, {} latches unsettled at their limit, \
              {} compliant latches with no compliance",
             self.steps,
@@ -252,7 +247,6 @@ impl SolverStats {
             f.latch_search_basic,
             f.latch_captured,
             f.latch_range_refused,
-            f.latch_closed,
             f.consistent_unconverged,
             f.latch_unsettled,
             f.latch_without_compliance,

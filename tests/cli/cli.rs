@@ -183,7 +183,6 @@ fn simulate_mast_deploys() {
         &f["ledger_budget_exceeded"],
         &f["latch_captured"],
         &st["latch_range_captures"],
-        &f["latch_closed"],
     ]
     .iter()
     .map(|v| v.as_u64().expect("counter"))

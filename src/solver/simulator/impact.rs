@@ -202,11 +202,7 @@ impl Simulator {
     }
 
     /// A truss that these latches left rigid (deployed, sleeves still
-    /// unlatched) with every open sleeve within `latch_close_m` (or its
-    /// capture range) of its lock closes onto all its locks (`close_onto_locks`): rigid to first order
-    /// a few 1e-5 m off its reference, where the last bays are pinned to
-    /// second order, it would otherwise stop there as a jam. Else the
-    /// rigid-latching sleeves standing at their lock length
+    /// unlatched): the rigid-latching sleeves standing at their lock length
     /// (|gap| within `latch_tol_m`) latch at the same instant, the last of
     /// `elements`' (their pins drop in where the motion stopped; their rows
     /// are redundant with the others', the truss is at rest along them, so
@@ -240,12 +236,6 @@ impl Simulator {
             .capturable()
             .filter(|&e| gap(model, e, &s.x).abs() <= tol)
             .collect();
-        // some farther than the tolerance, all within reach: the truss
-        // closes onto all its locks
-        let open = model.locks.iter().filter(|&&e| !s.locked[e]).count();
-        if at_lock.len() < open && self.close_onto_locks(t)?.is_some() {
-            return Ok(());
-        }
         if at_lock.is_empty() {
             return Ok(());
         }

@@ -429,10 +429,7 @@ impl Simulator {
                     h_try = 0.5 * h;
                     continue;
                 }
-                Err(e) => {
-                    self.capture_or(e)?;
-                    continue;
-                }
+                Err(e) => return Err(e),
                 Ok(()) => {}
             }
             // The trial stepped over the friction blend's fast transient
@@ -479,9 +476,9 @@ impl Simulator {
             // (a failure that left the state as it was: in a latch search,
             // whose steps to the crossing did not converge; retried shorter
             // like the trial itself, the crossing is then searched inside a
-            // shorter step, or falls after it; at the shortest sub-step
-            // `capture_or`; one after the state moved on, in a latch's own
-            // projection, stands)
+            // shorter step, or falls after it; at the shortest sub-step, or
+            // after the state moved on, in a latch's own projection, it
+            // stands)
             let before = self.state_mark();
             match self.finish_substep(h) {
                 Ok(()) => {}
@@ -492,10 +489,6 @@ impl Simulator {
                 {
                     self.core.stats.fallbacks.substep_halvings += 1;
                     h_try = 0.5 * h;
-                    continue;
-                }
-                Err(e) if self.state_mark() == before => {
-                    self.capture_or(e)?;
                     continue;
                 }
                 Err(e) => return Err(e),
