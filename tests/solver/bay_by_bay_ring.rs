@@ -635,23 +635,24 @@ fn a_36_sided_ring_deploys_to_full_lock_bay_by_bay_and_friction_orders_it() {
     friction_orders_the_bays(generated(36, 0.005), generated(36, 0.02), 0);
 }
 
-/// The 180-sided ring's first 10 s: its cable, over 179 pulleys, sticks in
+/// The 180-sided ring's first 80 s: its cable, over 179 pulleys, sticks in
 /// every pulley's friction blend (a damper far stiffer than a step
 /// resolves), whose accelerations alternate in sign from step to step under
 /// the trapezoidal rule. A step predicted far off pushes the iterates out of
 /// every blend at once, and the Newton steps then wander between the blends'
-/// saturated sides until the step is halved. After a halving the predictor
-/// has the fewest equal steps behind it; it still takes the extrapolation
-/// that would have predicted the last step best (linear or alternating), so
-/// no halving follows. Oracles: the energy ledger and the solver's own
-/// counts (no step halved, no Newton search failed, a handful of iterations
-/// per step).
+/// saturated sides until the step is halved. The predictor takes the
+/// alternation A_{n+1} = A_{n-1} wherever it would have predicted the last
+/// step best, also right after a step of another length (with the
+/// quadratic extrapolation taken unjudged after a shorter step, the first
+/// 10 s took 57 halvings; with A_n after one, 60-80 s took 319). Oracles:
+/// the energy ledger and the solver's own counts (no step halved, no Newton
+/// search failed, a handful of iterations per step).
 #[test]
 fn the_180_sided_ring_steps_through_its_stuck_cable_without_halving() {
     let model = model_of(&RingParams::bay_by_bay_sized(180));
     let dt = model.dt_s;
     let mut sim = Simulator::new(model, Options::default()).unwrap();
-    for _ in 0..200 {
+    for _ in 0..1600 {
         sim.step(dt).unwrap();
     }
     let (st, s) = (sim.solver_stats(), sim.state());
@@ -666,7 +667,7 @@ fn the_180_sided_ring_steps_through_its_stuck_cable_without_halving() {
     assert_eq!(st.fallbacks.substep_halvings, 0, "{}", st.line());
     assert_eq!(st.fallbacks.newmark_newton_failed, 0, "{}", st.line());
     assert!(
-        st.newmark_iterations <= 6 * st.newmark_steps,
+        st.newmark_iterations <= 4 * st.newmark_steps,
         "{} iterations in {} Newmark steps",
         st.newmark_iterations,
         st.newmark_steps

@@ -262,6 +262,12 @@ impl Core {
                     Predictor::Smooth => 3.0 * a - 3.0 * p1 + p2,
                 };
             }
+        } else if self.prev_h.is_some() && self.prev_h2.is_some() && self.alternates(model, s) {
+            // (after a change of h: the alternation A_{n+1} = A_{n-1} holds
+            // for the ringing mode whatever the step lengths, since its V
+            // stays put; it is taken where it would have predicted A_n better
+            // than A_n's predecessor did)
+            self.a_guess.copy_from_slice(&self.a_prev);
         } else if self.prev_h == Some(h) {
             for i in 0..self.a_guess.len() {
                 self.a_guess[i] = 2.0 * s.a[i] - self.a_prev[i];
@@ -334,6 +340,18 @@ impl Core {
         self.strain_trial_j = strain;
         self.violation_m = worst;
         self.jac.mul_t(&self.lambda, &mut self.member_force_trial);
+    }
+
+    /// Whether the step starts alternate: A_{n-2} is nearer A_n than
+    /// A_{n-1} is (kinetic norm), as a ringing mode's are.
+    fn alternates(&self, model: &Model, s: &State) -> bool {
+        let (mut constant_miss, mut alternation_miss) = (0.0, 0.0);
+        for i in 0..self.a_guess.len() {
+            let (a, p1, p2) = (s.a[i], self.a_prev[i], self.a_prev2[i]);
+            constant_miss += model.mass[i] * (p1 - a).powi(2);
+            alternation_miss += model.mass[i] * (p2 - a).powi(2);
+        }
+        alternation_miss < constant_miss
     }
 
     /// The trial (x, v) from the step start `s` and A_{n+1} = `a_guess`:
