@@ -179,11 +179,14 @@ pub struct SolverSettings {
     /// Golden-section and bisection iterations on the step's interpolant
     /// (each shrinks the interval by 0.618 or 0.5).
     pub dip_search_iterations: usize,
-    /// A capture within a latch's own capture range (`capture_range_m`) is
-    /// refused where latching moves a joint farther than this (m): near a
-    /// singular configuration the projection onto a latch's row can move
-    /// the joints far from where the motion had them; the capture is then
-    /// undone (`latch_range_refused`) and tried again after the next step.
+    /// A capture (sleeves within their latch's capture range,
+    /// `capture_range_m`, or carried past their lock by a latch) is refused
+    /// where latching moves a joint farther than this (m): near a singular
+    /// configuration the projection onto a latch's row can move the joints
+    /// far from where the motion had them. A refused capture at a step's end
+    /// is undone (`latch_range_refused`) and tried again after the next step;
+    /// one after a latch leaves the sleeves past their lock, which the
+    /// missed-latch check then reports.
     pub latch_capture_max_move_m: f64,
 
     // --- compliant latches (stages `impact` and `ledger`) ---

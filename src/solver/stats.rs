@@ -133,8 +133,9 @@ pub struct Fallbacks {
     /// A latch search's trial step whose least-squares iteration did not
     /// converge was redone with basic solves.
     pub latch_search_basic: u64,
-    /// A sleeve that a latch's projection carried past its lock, within its
-    /// latch's capture range, latched with it (`capture_swept`, `capture`).
+    /// A sleeve latched with a latch or capture whose projection carried it
+    /// past its lock: within its latch's capture range after an exact latch
+    /// (`capture_swept`), or however far inside a capture (`capture`).
     pub latch_captured: u64,
     /// A capture within a latch's capture range was refused: its projection
     /// failed or moved a joint farther than `latch_capture_max_move_m`

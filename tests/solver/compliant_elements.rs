@@ -463,8 +463,7 @@ fn creep_until_latched(text: &str, h: f64) -> Simulator {
 /// sleeve F from D to A without a capture range that latches at length
 /// 0.5 - 2e-5 m, i.e. at z_A = -2e-5 m with D where it starts: the creep
 /// never gets there (it rests at z_A = 0), but S's capture puts A at
-/// z_A = -5e-5 m, 3e-5 m past F's lock (farther than the failure path's
-/// `latch_capture_m`, 1e-5 m). Both latch at the same instant, their rows
+/// z_A = -5e-5 m, 3e-5 m past F's lock. Both latch at the same instant, their rows
 /// taken together: A at -5e-5 m (S), D at z_A - (0.5 - 2e-5) = -0.5 - 3e-5 m
 /// (F; two rows, two free coordinates, so the closed form is exact), and F's
 /// impulse 0 (D was at rest; A is stopped by S).

@@ -170,7 +170,7 @@ fn the_elastic_mast_deploys_as_the_rigid_one() {
 
 /// Every bundled model deploys with no result accepted inexact (no
 /// unconverged solve, no sub-step over its ledger or making energy, no
-/// capture or closing; `SolverStats::accepting_fallbacks`), every sleeve
+/// capture; `SolverStats::accepting_fallbacks`), every sleeve
 /// latched by its own event, the energy balanced. The ring's members are
 /// elastic (`generate ring` writes them so), its latches each with a
 /// closing speed and an impulse, and its members' dampers take energy.

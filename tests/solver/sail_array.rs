@@ -182,7 +182,7 @@ fn full_deployment_reaches_the_reference() {
     assert!(s.max_violation_m <= 1e-9, "violation {}", s.max_violation_m);
     assert_eq!(s.locks.len(), 2);
     // no result accepted inexact on the way (unconverged solves, sub-steps
-    // over their ledger, captures, closings)
+    // over their ledger, captures)
     let st = sim.solver_stats();
     assert_eq!(st.accepting_fallbacks(), 0, "{st:?}");
     let t = s.deploy_time_s.unwrap();

@@ -414,8 +414,8 @@ impl Simulator {
     /// state restored, where the projection fails or moves a joint farther
     /// than `latch_capture_max_move_m`: near a singular configuration the
     /// projection onto a latch's row can move the joints far from where the
-    /// motion had them, which would be a latch the dynamics never reached
-    /// (the failure that asked for the capture stands). Returns how many
+    /// motion had them, which would be a latch the dynamics never reached.
+    /// Returns how many
     /// latched, None if refused. The copy of the state is made only here,
     /// on a capture path.
     fn capture(&mut self, elements: &[usize]) -> Result<Option<usize>, SolverError> {

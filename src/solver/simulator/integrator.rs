@@ -194,10 +194,12 @@ impl Core {
     ) -> Result<(), SolverError> {
         self.stats.newmark_steps += 1;
         let cmd = &s.cable_tension_cmd_n;
-        // Predictor: A_{n+1} extrapolated from the last step starts of equal length,
-        // quadratically from three (error O(h^3): ~0.5 fewer iterations per step on
-        // the ring than linear), linearly from two, else A_n. Only the start of the
-        // fixed-point iteration changes, not its converged result.
+        // Predictor: A_{n+1} from the last step starts, each candidate judged
+        // by how well it would have predicted A_n (below); without the history
+        // to judge one, linear from two of equal length, else A_n. Only the
+        // start of the fixed-point iteration changes, not its converged result.
+        // Extrapolating A quadratically (error O(h^3)) takes ~0.5 fewer
+        // iterations per step on the ring than linearly.
         // A stiff damped mode (a pulley's friction stuck inside its blend, a
         // damper of time constant far below h) rings under the trapezoidal
         // rule: its V is smooth, its A alternates in sign from step to step,
@@ -213,12 +215,15 @@ impl Core {
         // linear along each parity (on the bundled ring it halved the
         // iterations per step). Of these, the one that would have predicted
         // the last step best (kinetic norm) is taken.
-        // With only two step starts before A_n (after a shorter step), the
-        // same choice is made between the linear A_{n+1} = 2 A_n - A_{n-1}
-        // and the alternation A_{n+1} = A_{n-1}: taking the quadratic one
-        // unjudged there missed a ringing mode by 8 times its amplitude, the
-        // step failed and was halved, and the history started again (on
-        // the 180-sided ring, every third step).
+        // With only two step starts of the same length before A_n (after a
+        // step of another length, or a restart), the same choice is made
+        // between the linear A_{n+1} = 2 A_n - A_{n-1} and the alternation
+        // A_{n+1} = A_{n-1}: taking the quadratic one unjudged there missed a
+        // ringing mode by 8 times its amplitude, the step failed and was
+        // halved, and the history started again (on the 180-sided ring,
+        // every third step). With fewer (`alternates`), the alternation is
+        // taken where A_{n-2} is nearer A_n than A_{n-1} is, else the linear
+        // extrapolation or A_n as before.
         if self.prev_h == Some(h) && self.prev_h2 == Some(h) && self.prev_h3 != Some(h) {
             let (mut linear_miss, mut alternation_miss) = (0.0, 0.0);
             for i in 0..self.a_guess.len() {
@@ -266,7 +271,9 @@ impl Core {
             // (after a change of h: the alternation A_{n+1} = A_{n-1} holds
             // for the ringing mode whatever the step lengths, since its V
             // stays put; it is taken where it would have predicted A_n better
-            // than A_n's predecessor did)
+            // than A_n's predecessor did, in place of the linear
+            // extrapolation or A_n, whose own back-test the change of h
+            // leaves without meaning)
             self.a_guess.copy_from_slice(&self.a_prev);
         } else if self.prev_h == Some(h) {
             for i in 0..self.a_guess.len() {

@@ -337,8 +337,8 @@ impl Simulator {
 
     /// Advances the state by exactly `dt` seconds, latching elements on the
     /// way. Returns the number of latch events in this step (the entries it
-    /// added to the lock table: exact latches, captures, closings and those
-    /// latched at their lock once rigid). A non-finite
+    /// added to the lock table: exact latches, captures and those latched
+    /// at their lock once rigid). A non-finite
     /// constraint Jacobian names the element whose rows it is in.
     pub fn step(&mut self, dt: f64) -> Result<usize, SolverError> {
         self.step_stages(dt).map_err(|e| match e {
@@ -387,7 +387,7 @@ impl Simulator {
         }
         let t_end = self.state.t_s + dt;
         // (the step's latch events: the new entries of the lock table, those
-        // latched at their lock once rigid and closings included)
+        // latched at their lock once rigid included)
         let locks_before = self.state.locks.len();
         let mut substeps = 0;
         // Sub-step length: halved when the Newmark iteration does not converge
