@@ -221,66 +221,20 @@ impl Core {
         // A_{n+1} = A_{n-1}: taking the quadratic one unjudged there missed a
         // ringing mode by 8 times its amplitude, the step failed and was
         // halved, and the history started again (on the 180-sided ring,
-        // every third step). With fewer (`alternates`), the alternation is
+        // every third step). With fewer (`predictor`), the alternation is
         // taken where A_{n-2} is nearer A_n than A_{n-1} is, else the linear
         // extrapolation or A_n as before.
-        if self.prev_h == Some(h) && self.prev_h2 == Some(h) && self.prev_h3 != Some(h) {
-            let (mut linear_miss, mut alternation_miss) = (0.0, 0.0);
-            for i in 0..self.a_guess.len() {
-                let (a, p1, p2) = (s.a[i], self.a_prev[i], self.a_prev2[i]);
-                linear_miss += model.mass[i] * (2.0 * p1 - p2 - a).powi(2);
-                alternation_miss += model.mass[i] * (p2 - a).powi(2);
-            }
-            let alternating = alternation_miss < linear_miss;
-            for i in 0..self.a_guess.len() {
-                let (a, p1) = (s.a[i], self.a_prev[i]);
-                self.a_guess[i] = if alternating { p1 } else { 2.0 * a - p1 };
-            }
-        } else if self.prev_h == Some(h) && self.prev_h2 == Some(h) {
-            // (A_n and the step starts before it: a_prev = A_{n-1}, ...)
-            let four = self.prev_h4 == Some(h);
-            let (mut smooth_miss, mut ring_miss) = (0.0, 0.0);
-            let mut parity_miss = if four { 0.0 } else { f64::INFINITY };
-            for i in 0..self.a_guess.len() {
-                let (p1, p2, p3) = (self.a_prev[i], self.a_prev2[i], self.a_prev3[i]);
-                let smooth = 3.0 * p1 - 3.0 * p2 + p3 - s.a[i];
-                let ring = p1 + p2 - p3 - s.a[i];
-                smooth_miss += model.mass[i] * smooth * smooth;
-                ring_miss += model.mass[i] * ring * ring;
-                if four {
-                    let parity = 2.0 * p2 - self.a_prev4[i] - s.a[i];
-                    parity_miss += model.mass[i] * parity * parity;
-                }
-            }
-            let best = if parity_miss <= ring_miss && parity_miss <= smooth_miss {
-                Predictor::Parity
-            } else if ring_miss < smooth_miss {
-                Predictor::Ringing
-            } else {
-                Predictor::Smooth
+        let best = self.predictor(model, s, h);
+        for i in 0..self.a_guess.len() {
+            let a = s.a[i];
+            self.a_guess[i] = match best {
+                Predictor::Constant => a,
+                Predictor::Linear => 2.0 * a - self.a_prev[i],
+                Predictor::Alternation => self.a_prev[i],
+                Predictor::Smooth => 3.0 * a - 3.0 * self.a_prev[i] + self.a_prev2[i],
+                Predictor::Ringing => a + self.a_prev[i] - self.a_prev2[i],
+                Predictor::Parity => 2.0 * self.a_prev[i] - self.a_prev3[i],
             };
-            for i in 0..self.a_guess.len() {
-                let (a, p1, p2) = (s.a[i], self.a_prev[i], self.a_prev2[i]);
-                self.a_guess[i] = match best {
-                    Predictor::Parity => 2.0 * p1 - self.a_prev3[i],
-                    Predictor::Ringing => a + p1 - p2,
-                    Predictor::Smooth => 3.0 * a - 3.0 * p1 + p2,
-                };
-            }
-        } else if self.prev_h.is_some() && self.prev_h2.is_some() && self.alternates(model, s) {
-            // (after a change of h: the alternation A_{n+1} = A_{n-1} holds
-            // for the ringing mode whatever the step lengths, since its V
-            // stays put; it is taken where it would have predicted A_n better
-            // than A_n's predecessor did, in place of the linear
-            // extrapolation or A_n, whose own back-test the change of h
-            // leaves without meaning)
-            self.a_guess.copy_from_slice(&self.a_prev);
-        } else if self.prev_h == Some(h) {
-            for i in 0..self.a_guess.len() {
-                self.a_guess[i] = 2.0 * s.a[i] - self.a_prev[i];
-            }
-        } else {
-            self.a_guess.copy_from_slice(&s.a);
         }
         // Viscous damping C (diagonal) is taken implicitly: with
         // V_{n+1} = V* + gamma h A_{n+1}, V* = V_n + (1 - gamma) h A_n, the
@@ -349,16 +303,54 @@ impl Core {
         self.jac.mul_t(&self.lambda, &mut self.member_force_trial);
     }
 
-    /// Whether the step starts alternate: A_{n-2} is nearer A_n than
-    /// A_{n-1} is (kinetic norm), as a ringing mode's are.
-    fn alternates(&self, model: &Model, s: &State) -> bool {
-        let (mut constant_miss, mut alternation_miss) = (0.0, 0.0);
-        for i in 0..self.a_guess.len() {
-            let (a, p1, p2) = (s.a[i], self.a_prev[i], self.a_prev2[i]);
-            constant_miss += model.mass[i] * (p1 - a).powi(2);
-            alternation_miss += model.mass[i] * (p2 - a).powi(2);
+    /// The predictor of A_{n+1} for a step of length h from `s` (see
+    /// `newmark`): each candidate judged by its back-test, the kinetic norm
+    /// of what it would have predicted for A_n less A_n, where the history
+    /// of step starts (a_prev = A_{n-1}, a_prev2 = A_{n-2}, ...) allows it.
+    fn predictor(&self, model: &Model, s: &State, h: f64) -> Predictor {
+        let miss = |predicted: &dyn Fn(usize) -> f64| -> f64 {
+            (0..s.a.len())
+                .map(|i| model.mass[i] * (predicted(i) - s.a[i]).powi(2))
+                .sum()
+        };
+        let (p1, p2, p3, p4) = (&self.a_prev, &self.a_prev2, &self.a_prev3, &self.a_prev4);
+        let equal = |prev: Option<f64>| prev == Some(h);
+        if equal(self.prev_h) && equal(self.prev_h2) && equal(self.prev_h3) {
+            let smooth = miss(&|i| 3.0 * p1[i] - 3.0 * p2[i] + p3[i]);
+            let ring = miss(&|i| p1[i] + p2[i] - p3[i]);
+            let parity = if equal(self.prev_h4) {
+                miss(&|i| 2.0 * p2[i] - p4[i])
+            } else {
+                f64::INFINITY
+            };
+            return if parity <= ring && parity <= smooth {
+                Predictor::Parity
+            } else if ring < smooth {
+                Predictor::Ringing
+            } else {
+                Predictor::Smooth
+            };
         }
-        alternation_miss < constant_miss
+        if equal(self.prev_h) && equal(self.prev_h2) {
+            let linear = miss(&|i| 2.0 * p1[i] - p2[i]);
+            let alternation = miss(&|i| p2[i]);
+            return if alternation < linear {
+                Predictor::Alternation
+            } else {
+                Predictor::Linear
+            };
+        }
+        // (after a change of h: the alternation holds for the ringing mode
+        // whatever the step lengths, since its V stays put; it is judged
+        // against the constant guess, the linear extrapolation's own
+        // back-test having no meaning across the change)
+        if self.prev_h.is_some() && self.prev_h2.is_some() && miss(&|i| p2[i]) < miss(&|i| p1[i]) {
+            Predictor::Alternation
+        } else if equal(self.prev_h) {
+            Predictor::Linear
+        } else {
+            Predictor::Constant
+        }
     }
 
     /// The trial (x, v) from the step start `s` and A_{n+1} = `a_guess`:
@@ -556,6 +548,12 @@ impl Core {
 /// The Newmark predictor's extrapolations of A_{n+1} (`Core::newmark`).
 #[derive(Clone, Copy)]
 enum Predictor {
+    /// A_n.
+    Constant,
+    /// Linear in A: 2 A_n - A_{n-1}.
+    Linear,
+    /// The alternation of a ringing mode: A_{n-1}.
+    Alternation,
     /// Quadratic in A: 3 A_n - 3 A_{n-1} + A_{n-2}.
     Smooth,
     /// Quadratic in V: A_n + A_{n-1} - A_{n-2}.
