@@ -180,12 +180,6 @@ struct GenerateArgs {
     /// the bay-by-bay ring's default above 18 sides.
     #[arg(long, allow_negative_numbers = true)]
     inner_chord_m: Option<f64>,
-    /// ring: capture range of the rigid latches (m; default 0, none): a sleeve within it of its
-    /// lock at the end of a step latches there, as a chamfered latch pin catches it (each
-    /// sleeve's `capture_range_m`). For rings whose last bays come to rest a hair short of flat
-    /// (36 sides; see docs/double_ring_stowing.md).
-    #[arg(long, allow_negative_numbers = true)]
-    latch_capture_m: Option<f64>,
     /// ring: members `elastic` along their axis (`[solver] elastic_members`; the bay-by-bay
     /// ring's default) or `rigid` (the default of --stow and --sync).
     #[arg(long, value_enum)]
@@ -618,7 +612,6 @@ fn generate_doc(a: &GenerateArgs) -> Result<model::ModelDoc, Failure> {
         ("--stroke-stops", a.stroke_stops.is_some()),
         ("--stroke-stop-damping", a.stroke_stop_damping.is_some()),
         ("--inner-chord-m", a.inner_chord_m.is_some()),
-        ("--latch-capture-m", a.latch_capture_m.is_some()),
         ("--members", a.members.is_some()),
     ];
     if let (false, Some((name, _))) = (matches!(a.kind, Kind::Ring), ring_only.iter().find(|o| o.1))
@@ -678,20 +671,11 @@ fn generate_doc(a: &GenerateArgs) -> Result<model::ModelDoc, Failure> {
                 start_deg: a.start_deg.unwrap_or(d.start_deg),
                 inner_chord_m: a.inner_chord_m.unwrap_or(d.inner_chord_m),
                 latch: latch_option(&a)?,
-                latch_capture_m: a.latch_capture_m.unwrap_or(d.latch_capture_m),
                 elastic_members: a
                     .members
                     .map_or(d.elastic_members, |m| m == MembersArg::Elastic),
                 ..d
             };
-            if let Some(r) = a.latch_capture_m {
-                if !(r.is_finite() && r >= 0.0) || p.latch.is_some() {
-                    return Err(Failure::input(format!(
-                        "--latch-capture-m {r}: give a finite length >= 0 (m), for rigid latches \
-                         (not with --latch-stiffness)"
-                    )));
-                }
-            }
             if let Some(ci) = a.inner_chord_m {
                 if !(ci.is_finite() && ci > 0.0 && ci < p.outer_chord_m) {
                     return Err(Failure::input(format!(

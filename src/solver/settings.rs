@@ -179,15 +179,6 @@ pub struct SolverSettings {
     /// Golden-section and bisection iterations on the step's interpolant
     /// (each shrinks the interval by 0.618 or 0.5).
     pub dip_search_iterations: usize,
-    /// A capture (sleeves within their latch's capture range,
-    /// `capture_range_m`, or carried past their lock by a latch) is refused
-    /// where latching moves a joint farther than this (m): near a singular
-    /// configuration the projection onto a latch's row can move the joints
-    /// far from where the motion had them. A refused capture at a step's end
-    /// is undone (`latch_range_refused`) and tried again after the next step;
-    /// one after a latch leaves the sleeves past their lock, which the
-    /// missed-latch check then reports.
-    pub latch_capture_max_move_m: f64,
 
     // --- compliant latches (stages `impact` and `ledger`) ---
     /// Steps per latch period until an engaged compliant latch's force has
@@ -265,7 +256,6 @@ impl Default for SolverSettings {
             root_max_iterations: 100,
             root_bracket_rel: 1e-15,
             dip_search_iterations: 60,
-            latch_capture_max_move_m: 1e-3,
             latch_steps_per_period: 128.0,
             latch_settle_steps_per_period: 40.0,
             latch_settle_rel: 1e-3,
@@ -334,7 +324,6 @@ impl SolverSettings {
             ("latch_settle_rel", self.latch_settle_rel),
             ("latch_max_periods", self.latch_max_periods),
             ("latch_immobile_rel", self.latch_immobile_rel),
-            ("latch_capture_max_move_m", self.latch_capture_max_move_m),
         ];
         for (key, v) in positive {
             if !(v.is_finite() && v > 0.0) {

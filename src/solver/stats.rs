@@ -47,12 +47,6 @@ pub struct SolverStats {
     /// members also compliant latches the structure cannot move along,
     /// which latch at once as their row, L/EA + 1/k).
     pub latches: u64,
-    /// ... of which latched at a step's end within their latch's capture
-    /// range (`capture_range_m` of a sleeve: a chamfered latch pin).
-    pub latch_range_captures: u64,
-    /// ... of which latched at their lock length the instant other latches
-    /// left the truss rigid (redundant with those, impulse 0).
-    pub latched_at_rigidity: u64,
     /// Trial sub-steps cut at a unilateral spring's contact onset or
     /// release (`contact_cut_rel`: an end stop's kink located).
     pub contact_cuts: u64,
@@ -133,14 +127,6 @@ pub struct Fallbacks {
     /// A latch search's trial step whose least-squares iteration did not
     /// converge was redone with basic solves.
     pub latch_search_basic: u64,
-    /// A sleeve latched with a latch or capture whose projection carried it
-    /// past its lock: within its latch's capture range after an exact latch
-    /// (`capture_swept`), or however far inside a capture (`capture`).
-    pub latch_captured: u64,
-    /// A capture within a latch's capture range was refused: its projection
-    /// failed or moved a joint farther than `latch_capture_max_move_m`
-    /// (the sleeves stay free and are tried again after the next step).
-    pub latch_range_refused: u64,
     /// The accelerations' fixed point with cable inertia stopped at its iteration limit.
     pub consistent_unconverged: u64,
     /// A compliant latch turned rigid at `latch_max_periods` without having
@@ -159,13 +145,11 @@ impl SolverStats {
     /// The fallbacks that accept a result known to be inexact, by name:
     /// solves stopped at their iteration limit, the cable inertia's fixed
     /// point stopped at its limit, sub-steps accepted although they made
-    /// energy or missed their ledger's budget at the shortest length, and
-    /// latches made by moving the truss onto a lock rather than by its
-    /// motion reaching it (sleeves a latch carried past their lock, captures
-    /// within a latch's capture range). The others
+    /// energy or missed their ledger's budget at the shortest length. The
+    /// others
     /// (halvings, restarts, Newton switches, refactorizations, ...) change
     /// the route to a result that meets its tolerance.
-    pub fn accepting_fallbacks_by_kind(&self) -> [(&'static str, u64); 6] {
+    pub fn accepting_fallbacks_by_kind(&self) -> [(&'static str, u64); 4] {
         let f = &self.fallbacks;
         [
             ("unconverged solves", f.solve_unconverged),
@@ -175,8 +159,6 @@ impl SolverStats {
                 "sub-steps over their ledger's budget",
                 f.ledger_budget_exceeded,
             ),
-            ("sleeves captured past their lock", f.latch_captured),
-            ("captures within a capture range", self.latch_range_captures),
         ]
     }
 
@@ -197,11 +179,10 @@ impl SolverStats {
             "{} steps, {} sub-steps, {} Newmark steps ({:.2} iterations each), \
              {} Newton steps ({} GMRES iterations, {} backtracks), \
              {} factorizations ({} reused, {} probes), {} solves ({:.2} iterations each; {} factored inside, {} with a kept one), \
-             {} latch searches ({} trial steps), {} latches ({} within a capture range, {} at their lock once rigid), {} sub-steps cut at contacts, {} halved on their ledger's budget; fallbacks: {} halvings ({} at blend entries, {} for energy, {} accepted making energy, {} over their ledger's budget at the shortest), \
+             {} latch searches ({} trial steps), {} latches, {} sub-steps cut at contacts, {} halved on their ledger's budget; fallbacks: {} halvings ({} at blend entries, {} for energy, {} accepted making energy, {} over their ledger's budget at the shortest), \
              {} blend entries taken again backward-Euler, {} Newton switches ({} failed, {} retried with secant slopes), {} Newmark min-norm, {} lagged friction, {} projection min-norm, {} velocity min-norm, \
              {} refactored, {} re-probed, {} least-squares, {} unconverged solves, \
              {} dips rejected ({} checks failed), {} root searches at their limit ({} search steps redone with basic solves), \
-             {} latches captured past their lock, {} capture-range latches refused, \
              {} inertia fixed points unconverged, {} latches unsettled at their limit, \
              {} compliant latches with no compliance",
             self.steps,
@@ -221,8 +202,6 @@ impl SolverStats {
             self.latch_searches,
             self.latch_search_steps,
             self.latches,
-            self.latch_range_captures,
-            self.latched_at_rigidity,
             self.contact_cuts,
             self.ledger_halvings,
             f.substep_halvings,
@@ -246,8 +225,6 @@ impl SolverStats {
             f.dip_checks_failed,
             f.root_search_limit,
             f.latch_search_basic,
-            f.latch_captured,
-            f.latch_range_refused,
             f.consistent_unconverged,
             f.latch_unsettled,
             f.latch_without_compliance,

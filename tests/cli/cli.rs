@@ -181,8 +181,6 @@ fn simulate_mast_deploys() {
         &f["consistent_unconverged"],
         &f["substep_energy_accepted"],
         &f["ledger_budget_exceeded"],
-        &f["latch_captured"],
-        &st["latch_range_captures"],
     ]
     .iter()
     .map(|v| v.as_u64().expect("counter"))
@@ -596,20 +594,12 @@ fn generate_ring_gear_and_stroke_stop_options() {
             "--inner-chord-m NaN",
         ),
         (
-            vec!["--latch-capture-m", "-0.001"],
-            "--latch-capture-m -0.001",
-        ),
-        (
-            vec!["--latch-capture-m", "1e-4", "--latch-stiffness", "2e5"],
-            "not with --latch-stiffness",
-        ),
-        (
             vec!["mast", "--inner-chord-m", "0.7"],
             "--inner-chord-m is an option of `generate ring`, not of `generate mast`",
         ),
         (
-            vec!["sail", "--latch-capture-m", "1e-4"],
-            "--latch-capture-m is an option of `generate ring`, not of `generate sail`",
+            vec!["sail", "--members", "rigid"],
+            "--members is an option of `generate ring`, not of `generate sail`",
         ),
     ] {
         // (a kind first replaces `ring`)
@@ -622,18 +612,4 @@ fn generate_ring_gear_and_stroke_stop_options() {
         assert_input_error(&o, &format!("{args:?}"), &[phrase], true);
         assert!(!d.join("bad.toml").exists());
     }
-    // --latch-capture-m: every sleeve (all rigid) gets the capture range
-    let out = d.join("r_capture.toml");
-    let o = run(&[
-        "generate",
-        "ring",
-        "--latch-capture-m",
-        "2e-4",
-        "-o",
-        &out.display().to_string(),
-    ]);
-    assert_success(&o, "generate ring --latch-capture-m");
-    let text = std::fs::read_to_string(&out).unwrap();
-    assert_eq!(text.matches("type = \"sleeve\"").count(), 54);
-    assert_eq!(text.matches("capture_range_m = 0.0002\n").count(), 54);
 }

@@ -187,7 +187,7 @@ fn solver_page_names_every_setting_and_every_counter() {
         }
     }
     assert!(
-        counters.iter().any(|c| c == "fallbacks.latch_captured"),
+        counters.iter().any(|c| c == "fallbacks.substep_halvings"),
         "{counters:?}"
     );
     let missing: Vec<_> = counters.iter().filter(|k| !named(k)).collect();

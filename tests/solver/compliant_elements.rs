@@ -345,99 +345,19 @@ fn an_end_stop_needs_a_stroke_a_stiffness_and_a_start_inside() {
     }
 }
 
-/// A latch's capture range (a chamfered latch pin). The gear oscillator
-/// above, overdamped (zeta 2), creeps from z0 toward z = 0; a sleeve from
-/// the held joint C one metre below A latches at 1 - g0, so its gap
-/// z + g0 never reaches 0 and without a capture range it never latches. With
-/// range r it latches at the end of the first step at which the gap is
-/// within r: z(t*) = r - g0 in the closed form
-///     z = (s1 e^(s2 t) - s2 e^(s1 t)) z0 / (s1 - s2), s1,2 = -w (zeta -+ sqrt(zeta^2 - 1)),
-/// A is put at z = -g0 (the projection, its spring work booked) and stopped
-/// (one degree of freedom: impulse m |z'(t)|). Returns (latch time,
-/// impulse, z after, closing rate before, energy balance) or None.
-fn captured_creep(r: f64, h: f64) -> Option<(f64, f64, f64, f64, f64)> {
-    let sim = creep_until_latched(&creep(r), h);
-    let a = sim.model().joint_index("A").unwrap();
-    let s = sim.state();
-    let balance = s.energy.balance_rel_error(s.kinetic_energy_j(sim.model()));
-    let latch = s.locks.first()?;
-    assert_eq!(s.locks.len(), 1);
-    let st = sim.solver_stats();
-    assert_eq!(st.latch_range_captures, 1);
-    // a capture is a result accepted inexact (the sleeve was moved onto its
-    // lock, not carried there by the motion): counted as such, by name
-    assert_eq!(st.accepting_fallbacks(), 1, "{st:?}");
-    assert!(st
-        .accepting_fallbacks_by_kind()
-        .contains(&("captures within a capture range", 1)));
-    Some((
-        latch.time_s,
-        latch.impulse_ns,
-        s.x[3 * a + 2],
-        latch.closing_speed_m_s,
-        balance,
-    ))
-}
-
-#[test]
-fn a_latch_catches_a_sleeve_within_its_capture_range_at_a_step_end() {
-    let (m, k, c, z0, g0, r, h): (f64, f64, f64, f64, f64, f64, f64) =
-        (0.25, 100.0, 20.0, 0.01, 5e-5, 1e-4, 0.01);
-    let w = (k / m).sqrt();
-    let zeta = c / (2.0 * (k * m).sqrt());
-    let root = (zeta * zeta - 1.0).sqrt();
-    let (s1, s2) = (-w * (zeta - root), -w * (zeta + root));
-    let z = |t: f64| (s1 * (s2 * t).exp() - s2 * (s1 * t).exp()) * z0 / (s1 - s2);
-    let zdot = |t: f64| s1 * s2 * ((s2 * t).exp() - (s1 * t).exp()) * z0 / (s1 - s2);
-    // t*: z(t*) = r - g0 by bisection (z falls monotonically, overdamped)
-    let (mut lo, mut hi) = (0.0, 3.0);
-    for _ in 0..200 {
-        let mid = 0.5 * (lo + hi);
-        if z(mid) > r - g0 {
-            lo = mid
-        } else {
-            hi = mid
-        }
-    }
-    let t_star = hi;
-    let first_step_end = (t_star / h).ceil() * h;
-    // without a capture range, or with one shorter than the gap left at
-    // rest (g0), the sleeve never latches
-    assert_eq!(captured_creep(0.0, h), None);
-    assert_eq!(captured_creep(0.8 * g0, h), None);
-    let (t_latch, impulse, z_after, rate, balance) = captured_creep(r, h).expect("a capture");
-    println!(
-        "t* {t_star:.6} s, first step end {first_step_end:.6} s, latched at {t_latch:.6} s; \
-         impulse {impulse:.6e} N s against m |z'| {:.6e}; z after {z_after:.3e}; rate {rate:.3e}; \
-         balance {balance:.2e}",
-        m * zdot(t_latch).abs()
-    );
-    assert!(
-        (t_latch - first_step_end).abs() < 1e-9,
-        "{t_latch} vs {first_step_end}"
-    );
-    assert!((z_after + g0).abs() < 1e-12, "{z_after}");
-    // the step's Newmark error on z' (second order at w h = 0.2)
-    assert!(
-        ((impulse - m * zdot(t_latch).abs()) / impulse).abs() < 1e-2,
-        "{impulse} vs {}",
-        m * zdot(t_latch).abs()
-    );
-    assert!(rate < 0.0, "closing: {rate}");
-    assert!(balance < 1e-6, "{balance:e}");
-}
-
-/// The creep model of `captured_creep`: the gear oscillator (m 0.25 kg,
-/// k 100 N/m, c 20 N s/m, z0 0.01 m) and the sleeve S from C, latching at
-/// z = -5e-5 m, capture range r.
-fn creep(r: f64) -> String {
+/// The creep: the gear oscillator above, overdamped (m 0.25 kg, k 100 N/m,
+/// c 20 N s/m, zeta 2), creeps from z0 = 0.01 m toward z = 0; a sleeve S from
+/// the held joint C one metre below A latches at length 1 + 5e-5 m, which
+/// the motion reaches at z = 5e-5 m (an exact latch, by the step map's root).
+/// A is then held in x, y (support) and z (S): the truss is rigid.
+fn creep() -> String {
     format!(
         "{}[[joint]]\nname = \"C\"\nposition_m = [0.5, 0.3, -1.0]\nmass_kg = 1.0\n\
          [[element]]\ntype = \"support\"\nname = \"C_held\"\njoints = [\"C\"]\nfix = \"xyz\"\n\
          [[element]]\ntype = \"sleeve\"\nname = \"S\"\njoints = [\"C\", \"A\"]\n\
-         lock_length_m = {}\ncapture_range_m = {r}\n",
+         lock_length_m = {}\n",
         oscillator(0.25, 100.0, 20.0, 0.01),
-        1.0 - 5e-5
+        1.0 + 5e-5
     )
 }
 
@@ -447,8 +367,7 @@ fn creep_until_latched(text: &str, h: f64) -> Simulator {
     let mut sim = Simulator::new(model, Options::default()).unwrap();
     for _ in 0..(3.0 / h).round() as usize {
         let reported = sim.step(h).unwrap();
-        // (every latch event the step made, captures and those at their
-        // lock once rigid included, is in the count it returns)
+        // (every latch event the step made is in the count it returns)
         assert_eq!(reported, sim.state().locks.len(), "{:?}", sim.state().locks);
         if !sim.state().locks.is_empty() {
             break;
@@ -457,172 +376,70 @@ fn creep_until_latched(text: &str, h: f64) -> Simulator {
     sim
 }
 
-/// A capture's projection carries another sleeve past its lock: that one
-/// latches in the same capture. The creep above, with a follower joint D
-/// 0.5 m below A, held in x and y and free in z (no force on it), and a
-/// sleeve F from D to A without a capture range that latches at length
-/// 0.5 - 2e-5 m, i.e. at z_A = -2e-5 m with D where it starts: the creep
-/// never gets there (it rests at z_A = 0), but S's capture puts A at
-/// z_A = -5e-5 m, 3e-5 m past F's lock. Both latch at the same instant, their rows
-/// taken together: A at -5e-5 m (S), D at z_A - (0.5 - 2e-5) = -0.5 - 3e-5 m
-/// (F; two rows, two free coordinates, so the closed form is exact), and F's
-/// impulse 0 (D was at rest; A is stopped by S).
+/// Sleeves within the latch tolerance of their lock at a latch's instant
+/// latch with it, in one velocity jump. The creep with a second sleeve T
+/// from E, 0.1 m beside A in the plane z = 5e-5 m where S latches, lock
+/// length 0.1 m - g (g = 5e-10 m, within the default tolerance 1e-9 m):
+/// T's gap sqrt(0.01 + (z - 5e-5)^2) - 0.1 + g stays above g as z falls (no
+/// crossing, no touch) and is g when S latches. T latches at S's instant
+/// with impulse 0 (S's row stops A; T's is perpendicular to A's motion),
+/// and the least-squares projection spreads T's contradiction g with the
+/// rigid truss's rows below the accept limit (1e-9 m).
 #[test]
-fn a_capture_latches_the_sleeves_its_projection_carries_past_their_lock() {
+fn sleeves_within_the_tolerance_of_their_lock_latch_with_the_one_that_reached_it() {
+    let g = 5e-10;
     let text = format!(
-        "{}[[joint]]\nname = \"D\"\nposition_m = [0.5, 0.3, -0.5]\nmass_kg = 1.0\n\
-         [[element]]\ntype = \"support\"\nname = \"D_xy\"\njoints = [\"D\"]\nfix = \"xy\"\n\
-         [[element]]\ntype = \"sleeve\"\nname = \"F\"\njoints = [\"D\", \"A\"]\n\
-         lock_length_m = {}\n",
-        creep(1e-4),
-        0.5 - 2e-5
-    );
-    let sim = creep_until_latched(&text, 0.01);
-    let (s, model) = (sim.state(), sim.model());
-    let (a, d) = (
-        model.joint_index("A").unwrap(),
-        model.joint_index("D").unwrap(),
-    );
-    let names: Vec<&str> = s.locks.iter().map(|l| l.name.as_str()).collect();
-    assert_eq!(names, ["S", "F"], "{:?}", s.locks);
-    assert_eq!(s.locks[0].time_s, s.locks[1].time_s);
-    assert!((s.x[3 * a + 2] + 5e-5).abs() < 1e-12, "{}", s.x[3 * a + 2]);
-    assert!(
-        (s.x[3 * d + 2] + 0.5 + 3e-5).abs() < 1e-12,
-        "{}",
-        s.x[3 * d + 2]
-    );
-    assert!(s.locks[1].impulse_ns < 1e-12, "{:?}", s.locks[1]);
-    let stats = sim.solver_stats();
-    assert_eq!(stats.latch_range_captures, 1);
-    assert_eq!(stats.fallbacks.latch_captured, 1);
-    let balance = s.energy.balance_rel_error(s.kinetic_energy_j(model));
-    assert!(balance < 1e-6, "{balance:e}");
-}
-
-#[test]
-fn a_capture_range_is_for_a_rigid_latch_and_shorter_than_the_sleeve() {
-    let base = "[model]\nname = \"c\"\n[[joint]]\nname = \"A\"\nposition_m = [0.0, 0.0, 0.0]\n\
-                mass_kg = 1.0\n[[joint]]\nname = \"B\"\nposition_m = [1.0, 0.0, 0.0]\nmass_kg = 1.0\n\
-                [[element]]\ntype = \"sleeve\"\nname = \"S\"\njoints = [\"A\", \"B\"]\nlock_length_m = 0.9\n";
-    assert!(parse(&format!("{base}capture_range_m = 1e-3\n"), "c.toml").is_ok());
-    for (extra, says) in [
-        ("capture_range_m = -1e-3\n", "capture_range_m"),
-        ("capture_range_m = 0.95\n", "below `lock_length_m`"),
-        (
-            "capture_range_m = 1e-3\nlatch_stiffness_n_per_m = 1e5\n",
-            "rigid latch",
-        ),
-    ] {
-        let err = parse(&format!("{base}{extra}"), "c.toml")
-            .err()
-            .unwrap_or_else(|| panic!("{extra} was accepted"))
-            .to_string();
-        assert!(
-            err.contains(says) && err.contains("c.toml"),
-            "{extra}: {err}"
-        );
-    }
-}
-
-/// A truss that a capture leaves rigid latches, at the same instant, the
-/// sleeves the capture's projection put at their lock length. The creep of
-/// `captured_creep` (range 1e-4 m) with a second sleeve T from E, 0.1 m
-/// beside A in the plane z = -5e-5 m where S latches, lock length 0.1 m:
-/// its gap sqrt(0.01 + (z + 5e-5)^2) - 0.1 ~ 5e-8 m when the capture
-/// catches A near z = 5e-5 m, and it does not change sign as z falls. The
-/// capture puts A at z = -5e-5 m: A fixed (x, y held, z by S), the truss
-/// rigid, and T at its lock (gap 0 to roundoff), so T latches with S at
-/// the capture's instant, impulse 0 (the truss is at rest once S latched).
-fn beside_the_creep(t_lock_length_m: f64) -> String {
-    format!(
-        "{}[[joint]]\nname = \"E\"\nposition_m = [0.6, 0.3, -5e-5]\nmass_kg = 1.0\n\
+        "{}[[joint]]\nname = \"E\"\nposition_m = [0.6, 0.3, 5e-5]\nmass_kg = 1.0\n\
          [[element]]\ntype = \"support\"\nname = \"E_held\"\njoints = [\"E\"]\nfix = \"xyz\"\n\
          [[element]]\ntype = \"sleeve\"\nname = \"T\"\njoints = [\"E\", \"A\"]\n\
-         lock_length_m = {t_lock_length_m}\n",
-        creep(1e-4)
-    )
-}
-
-/// The same with T's lock short of where the capture puts it by g, within
-/// the latch tolerance but not 0, so that its row contradicts the rigid
-/// truss's by g: S's capture stands, and T latches only if the rows still
-/// hold to the projection's accept limit (1e-9 m). At g = 5e-10 m (default
-/// tolerance 1e-9 m) the least-squares projection spreads it below the
-/// limit and T latches; at g = 5e-7 m (`lock_tol_m` raised to 1e-6 m) it
-/// cannot, and T stays open (the state restored: |Phi| within the limit).
-#[test]
-fn a_sleeve_nearly_at_its_lock_in_a_rigid_truss_does_not_undo_the_latch_that_made_it_rigid() {
-    for (g, tol, t_latches) in [(5e-10, None, true), (5e-7, Some(1e-6), false)] {
-        let mut text = beside_the_creep(0.1 - g);
-        if let Some(tol) = tol {
-            text += &format!("[solver]\nlock_tol_m = {tol}\n");
-        }
-        let sim = creep_until_latched(&text, 0.01);
-        let s = sim.state();
-        println!("g {g:e}: {:?}, max |Phi| {:e}", s.locks, s.max_violation_m);
-        assert_eq!(s.locks[0].name, "S");
-        assert!(s.deployed);
-        assert!(s.max_violation_m <= 1e-9, "{}", s.max_violation_m);
-        assert_eq!(s.locks.len(), 1 + t_latches as usize, "g {g:e}");
-        assert_eq!(
-            sim.solver_stats().latched_at_rigidity,
-            t_latches as u64,
-            "g {g:e}"
-        );
-    }
-}
-
-#[test]
-fn a_truss_left_rigid_latches_the_sleeves_standing_at_their_lock() {
-    let sim = creep_until_latched(&beside_the_creep(0.1), 0.01);
+         lock_length_m = {}\n",
+        creep(),
+        0.1 - g
+    );
+    let sim = creep_until_latched(&text, 0.01);
     let s = sim.state();
-    println!("{:?}", s.locks);
+    println!("{:?}, max |Phi| {:e}", s.locks, s.max_violation_m);
     let names: Vec<&str> = s.locks.iter().map(|l| l.name.as_str()).collect();
     assert_eq!(names, ["S", "T"]);
+    let a = sim.model().joint_index("A").unwrap();
+    assert!((s.x[3 * a + 2] - 5e-5).abs() < 1e-9, "{}", s.x[3 * a + 2]);
     assert!(s.deployed);
-    let stats = sim.solver_stats();
-    assert_eq!(
-        (stats.latch_range_captures, stats.latched_at_rigidity),
-        (1, 1)
-    );
+    assert!(s.max_violation_m <= 1e-9, "{}", s.max_violation_m);
     assert_eq!(s.locks[0].time_s, s.locks[1].time_s);
     assert!(s.locks[1].impulse_ns < 1e-12, "{:?}", s.locks[1]);
+    assert_eq!(sim.solver_stats().accepting_fallbacks(), 0);
 }
 
-/// A capture whose move exceeds `latch_capture_max_move_m` is refused and
-/// counted, and the sleeve stays free. The creep (range 1e-4 m) comes within
-/// range of S's lock (z = -5e-5 m) while still 1e-4 m above it, and rests at
-/// z = 0, 5e-5 m short: with the move limit at 1e-3 m the first step end in
-/// range latches it (the move ~1e-4 m); at 1e-6 m every step end in range
-/// refuses it (300 steps of 0.01 s), nothing latches, and the ledger holds.
+/// A sleeve that comes to rest short of its lock stays open: nothing moves a
+/// truss onto a lock its motion did not reach (a model file's
+/// `capture_range_m` is refused by name, with the file).
 #[test]
-fn a_capture_that_would_move_a_joint_too_far_is_refused_and_counted() {
-    for (max_move_m, latches) in [(1e-3, true), (1e-6, false)] {
-        let text = format!(
-            "{}[solver]\nlatch_capture_max_move_m = {max_move_m:e}\n",
-            creep(1e-4)
-        );
-        let model = parse(&text, "creep.toml").unwrap().model;
-        let mut sim = Simulator::new(model, Options::default()).unwrap();
-        for _ in 0..300 {
-            sim.step(0.01).unwrap();
-        }
-        let (s, stats) = (sim.state(), sim.solver_stats());
-        let balance = s.energy.balance_rel_error(s.kinetic_energy_j(sim.model()));
-        println!(
-            "move limit {max_move_m:e}: {} latched, {} refused, balance {balance:e}",
-            s.locks.len(),
-            stats.fallbacks.latch_range_refused
-        );
-        assert_eq!(s.locks.len(), latches as usize);
-        if latches {
-            assert_eq!(stats.fallbacks.latch_range_refused, 0);
-        } else {
-            // (every step end from entering the range on: most of the 300)
-            assert!(stats.fallbacks.latch_range_refused >= 100);
-            assert_eq!(stats.latch_range_captures, 0);
-        }
-        assert!(balance < 1e-9, "{balance:e}");
+fn a_sleeve_at_rest_short_of_its_lock_stays_open() {
+    // S's lock 5e-5 m beyond where the creep comes to rest (z = 0)
+    let text = creep().replace(
+        &format!("lock_length_m = {}\n", 1.0 + 5e-5),
+        &format!("lock_length_m = {}\n", 1.0 - 5e-5),
+    );
+    let model = parse(&text, "creep.toml").unwrap().model;
+    let mut sim = Simulator::new(model, Options::default()).unwrap();
+    for _ in 0..300 {
+        sim.step(0.01).unwrap();
     }
+    let s = sim.state();
+    let a = sim.model().joint_index("A").unwrap();
+    assert!(s.locks.is_empty(), "{:?}", s.locks);
+    assert!(s.x[3 * a + 2].abs() < 1e-4, "{}", s.x[3 * a + 2]);
+    let balance = s.energy.balance_rel_error(s.kinetic_energy_j(sim.model()));
+    assert!(balance < 1e-9, "{balance:e}");
+    let err = parse(
+        &text.replace("lock_length_m", "capture_range_m = 1e-4\nlock_length_m"),
+        "creep.toml",
+    )
+    .err()
+    .expect("capture_range_m refused")
+    .to_string();
+    assert!(
+        err.contains("capture_range_m") && err.contains("creep.toml"),
+        "{err}"
+    );
 }

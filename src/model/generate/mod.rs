@@ -41,25 +41,9 @@ pub fn sleeve_lock(spring: &[(String, Param)], lock_length_m: f64) -> Vec<(Strin
 }
 
 /// The sleeves' latch parameters (checked): the compliant latch of a
-/// generator's `latch`, or a rigid latch's capture range `capture_m` (m; 0:
-/// none written).
-pub fn latch_params(
-    latch: Option<&LatchParams>,
-    capture_m: f64,
-) -> Result<Vec<(String, Param)>, String> {
-    if !(capture_m.is_finite() && capture_m >= 0.0) {
-        return Err(format!(
-            "latch capture range {capture_m} m must be a finite length >= 0"
-        ));
-    }
-    match (latch, capture_m > 0.0) {
-        (Some(_), true) => Err(
-            "a latch capture range is for rigid latches; compliant latches engage at their lock"
-                .into(),
-        ),
-        (None, true) => Ok(vec![("capture_range_m".into(), Param::Num(capture_m))]),
-        (l, false) => l.map_or(Ok(Vec::new()), LatchParams::sleeve_params),
-    }
+/// generator's `latch`, none for rigid latches.
+pub fn latch_params(latch: Option<&LatchParams>) -> Result<Vec<(String, Param)>, String> {
+    latch.map_or(Ok(Vec::new()), LatchParams::sleeve_params)
 }
 
 /// The model note of compliant latches.
@@ -167,7 +151,7 @@ pub fn mast(p: &MastParams) -> Result<ModelDoc, String> {
             p.units
         ));
     }
-    let spring = latch_params(p.latch.as_ref(), 0.0)?;
+    let spring = latch_params(p.latch.as_ref())?;
     let positive = [p.rod_length_m, p.joint_mass_kg, p.dt_s];
     if positive.iter().any(|v| !(v.is_finite() && *v > 0.0)) {
         return Err("rod length, joint mass and dt must be positive and finite".into());

@@ -68,10 +68,6 @@ pub struct RingParams {
     pub inner_hinges: bool,
     /// Compliant latches on every sleeve (rigid when None).
     pub latch: Option<super::LatchParams>,
-    /// Capture range of the rigid latches (m; `capture_range_m` of every
-    /// sleeve: a chamfered latch pin catches a sleeve this close to its
-    /// lock); 0: none.
-    pub latch_capture_m: f64,
     /// Stowing ring: the bay-by-bay ring (`generate ring --bay-by-bay`, see
     /// `ring_stowing`): the inner ring raised by radial frames deployed
     /// sheared (`frame_shear_deg`), inner chords on ball joints, every
@@ -116,7 +112,6 @@ impl Default for RingParams {
             synchronized: true,
             inner_hinges: true,
             latch: None,
-            latch_capture_m: 0.0,
             bay_by_bay: false,
             frame_shear_deg: 20.0,
             gear: super::LatchParams {
@@ -401,7 +396,7 @@ fn synchronized_ring(p: &RingParams) -> Result<ModelDoc, String> {
             params,
         };
     let j = |ring: &str, k: usize, end: &str| format!("{ring}{}_{end}", k % n);
-    let spring = super::latch_params(p.latch.as_ref(), p.latch_capture_m)?;
+    let spring = super::latch_params(p.latch.as_ref())?;
     let lock = |l: f64| super::sleeve_lock(&spring, l);
     let mut elements = Vec::new();
     let fix = fix_joint;

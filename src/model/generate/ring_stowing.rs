@@ -316,7 +316,7 @@ pub fn stowing_ring(p: &RingParams) -> Result<ModelDoc, String> {
     } else {
         elements.extend(hub_mount(n));
     }
-    let spring = super::latch_params(p.latch.as_ref(), p.latch_capture_m)?;
+    let spring = super::latch_params(p.latch.as_ref())?;
     let lock = |l: f64| super::sleeve_lock(&spring, l);
     for k in 0..n {
         for ring in ["O", "I"] {

@@ -221,14 +221,6 @@ pub trait Constraint: Send + Sync + fmt::Debug {
     fn latch_spring(&self) -> Option<(f64, f64)> {
         None
     }
-    /// For lockable elements with a rigid latch: the latch's capture range
-    /// r (m), as a chamfered, spring-loaded latch pin has: a sleeve within r
-    /// of its lock at the end of a step latches there (`Simulator::step`,
-    /// stage `events`), the projection onto its lock length booked as work.
-    /// 0: it latches only where the motion reaches its lock.
-    fn capture_range_m(&self) -> f64 {
-        0.0
-    }
     /// A compliant element: its spring-damper (then `rows` is 0, and
     /// `residual`, `jacobian` write the spring's rows). None: rigid rows.
     fn spring(&self) -> Option<ElementSpring> {

@@ -15,8 +15,6 @@ pub struct Sleeve {
     pub axial_stiffness_n: Option<f64>,
     /// Compliant latch: stiffness (N/m) and damping (N s/m); rigid when None.
     pub latch_spring: Option<(f64, f64)>,
-    /// Capture range of a rigid latch (m): see `Constraint::capture_range_m`.
-    pub capture_range_m: f64,
 }
 
 impl Sleeve {
@@ -27,7 +25,6 @@ impl Sleeve {
             lock_length_m,
             axial_stiffness_n: None,
             latch_spring: None,
-            capture_range_m: 0.0,
         }
     }
     fn row(&self) -> Distance {
@@ -45,7 +42,6 @@ pub const PARAMS: &[&str] = &[
     super::AXIAL_STIFFNESS_KEY,
     "latch_stiffness_n_per_m",
     "latch_damping_n_s_per_m",
-    "capture_range_m",
 ];
 
 pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, String> {
@@ -69,24 +65,9 @@ pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, Stri
         "latch_damping_n_s_per_m",
         "a compliant latch",
     )?;
-    let capture_range_m = spec.num("capture_range_m")?.unwrap_or(0.0);
-    if !(0.0..lock).contains(&capture_range_m) {
-        return Err(format!(
-            "`capture_range_m` = {capture_range_m} must be >= 0 and below `lock_length_m` \
-             ({lock}): the distance from its lock within which the latch pin catches the sleeve"
-        ));
-    }
-    if capture_range_m > 0.0 && latch_spring.is_some() {
-        return Err(
-            "`capture_range_m` is for a rigid latch; a compliant latch (`latch_stiffness_n_per_m`) \
-             engages where the sleeve reaches its lock"
-                .to_string(),
-        );
-    }
     Ok(Box::new(Sleeve {
         axial_stiffness_n: spec.axial_stiffness()?,
         latch_spring,
-        capture_range_m,
         ..Sleeve::new(&spec.name, a, b, lock)
     }))
 }
@@ -112,9 +93,6 @@ impl Constraint for Sleeve {
     }
     fn latch_spring(&self) -> Option<(f64, f64)> {
         self.latch_spring
-    }
-    fn capture_range_m(&self) -> f64 {
-        self.capture_range_m
     }
     fn lock_gap(&self, x: &[f64]) -> Option<f64> {
         Some(self.row().residual(x))

@@ -177,7 +177,7 @@ impl Simulator {
 
     /// Latches `elements` rigid at the state and records their events, each
     /// at the instant `reached_s` gives it (when it reached its lock).
-    pub(super) fn latch_rigid(
+    fn latch_rigid(
         &mut self,
         elements: &[usize],
         reached_s: &dyn Fn(usize) -> f64,
@@ -196,54 +196,7 @@ impl Simulator {
                 rigid_at_s: None,
             });
         }
-        self.latch_at_lock_once_rigid(elements, reached_s)?;
         self.stamp_deploy_time();
-        Ok(())
-    }
-
-    /// A truss that these latches left rigid (deployed, sleeves still
-    /// unlatched): the rigid-latching sleeves standing at their lock length
-    /// (|gap| within `latch_tol_m`) latch at the same instant, the last of
-    /// `elements`' (their pins drop in where the motion stopped; their rows
-    /// are redundant with the others', the truss is at rest along them, so
-    /// their impulse is 0 and nothing moves; counted as
-    /// `latched_at_rigidity`). Those farther from their lock
-    /// stay open, as a jam (`checks::jammed`) reports them. Best effort: a
-    /// gap within the tolerance but not 0 makes the rows of a truss that is
-    /// truly rigid contradict each other by as much, and where the latch's
-    /// projection fails on that, the state is restored and they stay open
-    /// (the latch that left the truss rigid stands).
-    pub(super) fn latch_at_lock_once_rigid(
-        &mut self,
-        elements: &[usize],
-        reached_s: &dyn Fn(usize) -> f64,
-    ) -> Result<(), SolverError> {
-        if !self.state.deployed || self.all_locked() {
-            return Ok(());
-        }
-        // (the instant of the latches that made it rigid; the state's time
-        // where none is given, after compliant latches turned rigid)
-        let t = if elements.is_empty() {
-            self.state.t_s
-        } else {
-            elements
-                .iter()
-                .map(|&e| reached_s(e))
-                .fold(f64::NEG_INFINITY, f64::max)
-        };
-        let (model, s, tol) = (&self.model, &self.state, self.settings.latch_tol_m());
-        let at_lock: Vec<usize> = self
-            .capturable()
-            .filter(|&e| gap(model, e, &s.x).abs() <= tol)
-            .collect();
-        if at_lock.is_empty() {
-            return Ok(());
-        }
-        let mark = self.latch_mark();
-        match self.latch_rigid(&at_lock, &|_| t) {
-            Ok(()) => self.core.stats.latched_at_rigidity += at_lock.len() as u64,
-            Err(_) => self.undo_latch(&mark),
-        }
         Ok(())
     }
 
@@ -283,8 +236,7 @@ impl Simulator {
     /// or reached its lock (compliant latches turn rigid later), also of a
     /// latch after the truss turned rigid (near a singular configuration
     /// the rank test finds it rigid while the last sleeves still close on
-    /// their locks by second-order motion, and captures latch them at the
-    /// step's end).
+    /// their locks by second-order motion and latch later).
     fn stamp_deploy_time(&mut self) {
         let s = &mut self.state;
         if s.deployed {
@@ -523,7 +475,6 @@ impl Simulator {
         // (the waiting latches' events first: they may have reached their
         // lock after the last engagement)
         let waited = self.latch_waiting()?;
-        self.latch_at_lock_once_rigid(&[], &|_| t)?;
         self.stamp_deploy_time();
         Ok(turned + waited)
     }

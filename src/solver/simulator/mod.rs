@@ -337,9 +337,8 @@ impl Simulator {
 
     /// Advances the state by exactly `dt` seconds, latching elements on the
     /// way. Returns the number of latch events in this step (the entries it
-    /// added to the lock table: exact latches, captures and those latched
-    /// at their lock once rigid). A non-finite
-    /// constraint Jacobian names the element whose rows it is in.
+    /// added to the lock table). A non-finite constraint Jacobian names the
+    /// element whose rows it is in.
     pub fn step(&mut self, dt: f64) -> Result<usize, SolverError> {
         self.step_stages(dt).map_err(|e| match e {
             SolverError::NonFiniteJacobian => {
@@ -373,7 +372,7 @@ impl Simulator {
     }
 
     /// `step`'s stages: sub-steps (integrator, events, impact, ledger) to
-    /// the step's end, then the capture ranges.
+    /// the step's end.
     fn step_stages(&mut self, dt: f64) -> Result<usize, SolverError> {
         if !(dt.is_finite() && dt > 0.0) {
             return Err(SolverError::Invalid(format!(
@@ -386,8 +385,7 @@ impl Simulator {
             self.restart_accelerations()?;
         }
         let t_end = self.state.t_s + dt;
-        // (the step's latch events: the new entries of the lock table, those
-        // latched at their lock once rigid included)
+        // (the step's latch events: the new entries of the lock table)
         let locks_before = self.state.locks.len();
         let mut substeps = 0;
         // Sub-step length: halved when the Newmark iteration does not converge
@@ -504,7 +502,6 @@ impl Simulator {
         }
         self.core.backward_euler = false;
         self.state.t_s = t_end.max(self.state.t_s);
-        self.capture_in_range()?;
         self.state.steps += 1;
         self.core.stats.steps += 1;
         Ok(self.state.locks.len() - locks_before)
@@ -676,7 +673,6 @@ impl Simulator {
                     self.accept(h_star);
                     self.settle_transients()?;
                     self.latch()?;
-                    self.capture_swept()?;
                     // Nothing may have passed its lock without latching
                     // (a target short of its lock goes on in the next sub-step).
                     self.check_nothing_missed()?;
