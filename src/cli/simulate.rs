@@ -422,8 +422,19 @@ fn print_summary(s: &SimulateJson) {
         say!("final error      {e:.3e} of the largest reference dimension");
     }
     say!("max |Phi|        {:.3e} m", s.max_constraint_violation_m);
+    // (the balance's other terms where they are not 0: gravity's work, and
+    // what the backward-Euler steps gained beyond the forces' work)
+    let mut other = String::new();
+    for (name, j) in [
+        ("gravity", s.energy.gravity_work_j),
+        ("backward-Euler steps", s.energy.integrator_work_j),
+    ] {
+        if j != 0.0 {
+            other += &format!(", {name} {j:.3e} J");
+        }
+    }
     say!(
-        "energy           motor {:.6e} J, friction {:.3e} J, damping {:.3e} J, latches {:.6e} J, kinetic {:.6e} J, elastic {:.3e} J; balance error {:.2e}",
+        "energy           motor {:.6e} J, friction {:.3e} J, damping {:.3e} J, latches {:.6e} J, kinetic {:.6e} J, elastic {:.3e} J{other}; balance error {:.2e}",
         s.energy.motor_work_j, s.energy.friction_loss_j, s.energy.damping_loss_j + s.energy.member_damping_loss_j, s.energy.lock_loss_j + s.energy.latch_damping_loss_j, s.kinetic_energy_j, s.energy.latch_spring_energy_j + s.energy.element_spring_energy_j + s.energy.member_strain_energy_j, s.energy_balance_rel_error
     );
     for mo in &s.motors {

@@ -613,3 +613,42 @@ fn generate_ring_gear_and_stroke_stop_options() {
         assert!(!d.join("bad.toml").exists());
     }
 }
+
+/// The text summary's energy line names gravity's work where it is not 0,
+/// as the JSON's `gravity_work_j` to the digits it prints: the mast under
+/// gravity along its deploy direction for 2 s; the bundled mast (no
+/// gravity, no backward-Euler step) names neither.
+#[test]
+fn the_energy_line_names_the_balance_terms_that_are_not_zero() {
+    let d = temp_dir("energy_line");
+    let text = std::fs::read_to_string(mast_model()).unwrap();
+    let zero = "gravity_m_s2 = [0.0, 0.0, 0.0]\n";
+    assert_eq!(text.matches(zero).count(), 1, "the mast's gravity line");
+    let m = d.join("mast_g.toml");
+    std::fs::write(&m, text.replace(zero, "gravity_m_s2 = [-9.81, 0.0, 0.0]\n")).unwrap();
+    let j = d.join("g.json");
+    for (model, json, gravity) in [(&m, &j, true), (&mast_model(), &d.join("m.json"), false)] {
+        let o = run(&[
+            "simulate",
+            &model.display().to_string(),
+            "--until",
+            "2",
+            "--json",
+            &json.display().to_string(),
+        ]);
+        assert_success(&o, "simulate --until 2");
+        let out = String::from_utf8_lossy(&o.stdout);
+        let line = out
+            .lines()
+            .find(|l| l.starts_with("energy "))
+            .expect("an energy line");
+        let g = num(&read_json(json)["energy"], "gravity_work_j");
+        assert_eq!(g != 0.0, gravity, "{g}");
+        assert_eq!(
+            line.contains(&format!(", gravity {g:.3e} J")),
+            gravity,
+            "{line}"
+        );
+        assert!(!line.contains("backward-Euler"), "{line}");
+    }
+}
