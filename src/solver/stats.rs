@@ -119,8 +119,6 @@ pub struct Fallbacks {
     pub solve_unconverged: u64,
     /// An interpolated touch of a sleeve's lock length that the step map did not confirm.
     pub dips_rejected: u64,
-    /// ... of which the check step itself failed (the touch is then not taken).
-    pub dip_checks_failed: u64,
     /// A latch root search reached its iteration limit with the gap within
     /// the latch tolerance (beyond it, the search is an error).
     pub root_search_limit: u64,
@@ -182,7 +180,7 @@ impl SolverStats {
              {} latch searches ({} trial steps), {} latches, {} sub-steps cut at contacts, {} halved on their ledger's budget; fallbacks: {} halvings ({} at blend entries, {} for energy, {} accepted making energy, {} over their ledger's budget at the shortest), \
              {} blend entries taken again backward-Euler, {} Newton switches ({} failed, {} retried with secant slopes), {} Newmark min-norm, {} lagged friction, {} projection min-norm, {} velocity min-norm, \
              {} refactored, {} re-probed, {} least-squares, {} unconverged solves, \
-             {} dips rejected ({} checks failed), {} root searches at their limit ({} search steps redone with basic solves), \
+             {} dips rejected, {} root searches at their limit ({} search steps redone with basic solves), \
              {} inertia fixed points unconverged, {} latches unsettled at their limit, \
              {} compliant latches with no compliance",
             self.steps,
@@ -222,7 +220,6 @@ impl SolverStats {
             f.solve_least_squares,
             f.solve_unconverged,
             f.dips_rejected,
-            f.dip_checks_failed,
             f.root_search_limit,
             f.latch_search_basic,
             f.consistent_unconverged,

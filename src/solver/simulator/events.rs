@@ -11,8 +11,8 @@
 //! Give-ups: a root search that ends at its iteration limit with |g| above
 //! the latch tolerance is an error (`SolverError::LatchSearch`); a lockable
 //! element found past its lock without latching after a latch event is an
-//! error (`SolverError::MissedLatch`); a touch whose check step fails is
-//! dropped (a counted fallback: the full step stands, as without the touch).
+//! error (`SolverError::MissedLatch`); a touch whose check step fails fails
+//! the sub-step (retried shorter, as any failed sub-step).
 
 use super::Simulator;
 use crate::solver::elements::Constraint;
@@ -179,8 +179,8 @@ impl Simulator {
     /// `s_hi` < 1 (a touch and turn inside the step): the step map is first
     /// evaluated at s_hi h for a bracket. A gap there within the latch
     /// tolerance is a touch: h* = s_hi h. A gap that has not crossed after
-    /// all (the interpolant's dip was not real), or a failed step there, gives
-    /// None, with the trial left at whatever it last computed.
+    /// all (the interpolant's dip was not real) gives None, with the trial
+    /// left at whatever it last computed; a failed step there is the error.
     pub(super) fn locate_latch(
         &mut self,
         mut target: usize,
@@ -194,14 +194,9 @@ impl Simulator {
         if s_hi < 1.0 {
             b = s_hi * h;
             self.core.stats.latch_search_steps += 1;
-            if self
-                .core
-                .newmark(&self.model, &self.state, b, st, mode)
-                .is_err()
-            {
-                self.core.stats.fallbacks.dip_checks_failed += 1;
-                return Ok(None);
-            }
+            // (a check step that fails fails the sub-step, which is then
+            // retried shorter: a touch is not dropped unchecked)
+            self.core.newmark(&self.model, &self.state, b, st, mode)?;
             // An element that has crossed by then comes first (e.g. the ring's
             // diagonals, just before its radial sleeves touch at the flat state).
             if let Some(other) = self.crossed_by(target) {
