@@ -87,6 +87,28 @@ fn a_latch_search_at_its_iteration_limit_is_an_error_naming_the_sleeve() {
     );
 }
 
+/// The same limit with a latch tolerance wide enough for the search's far
+/// bracket end: that end is taken (counted as `root_search_limit`), and the
+/// mast deploys with every sleeve latched.
+#[test]
+fn a_latch_search_at_its_limit_within_the_latch_tolerance_latches_there() {
+    let settings = SolverSettings {
+        root_max_iterations: 1,
+        lock_tol_m: 1e-2,
+        ..SolverSettings::default()
+    };
+    let (sim, r) = run(settings, 2000);
+    r.expect("every search ends within the latch tolerance");
+    let (s, st) = (sim.state(), sim.solver_stats());
+    assert!(s.deployed);
+    assert_eq!(s.locks.len(), sim.model().locks.len());
+    assert!(st.fallbacks.root_search_limit >= 1, "{st:?}");
+    assert!(
+        st.fallbacks.root_search_limit <= st.latch_searches,
+        "{st:?}"
+    );
+}
+
 #[test]
 fn a_newmark_iteration_limit_halves_sub_steps() {
     // The default run never halves a sub-step; one fixed-point iteration
