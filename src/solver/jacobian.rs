@@ -87,6 +87,35 @@ impl Jacobian {
         Some((first, 1 + bad.count()))
     }
 
+    /// Where the Jacobian is not finite, for an error message: the element
+    /// whose rows hold the first non-finite entry (and its joints), or how
+    /// many elements do, or the products where every entry is finite.
+    pub fn describe_non_finite(&self, model: &Model) -> String {
+        match self.non_finite_element() {
+            Some((e, 1)) => format!(
+                "constraint Jacobian, in the rows of {} `{}` (joints {})",
+                model.elements[e].kind(),
+                model.elements[e].name(),
+                model.elements[e]
+                    .joints()
+                    .iter()
+                    .map(|&j| model.joints[j].name.as_str())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+            Some((e, n)) => format!(
+                "constraint Jacobian, in the rows of {n} elements, the first {} `{}` \
+                 (the iteration diverged)",
+                model.elements[e].kind(),
+                model.elements[e].name()
+            ),
+            // (finite entries whose products overflowed)
+            None => "constraint Jacobian's products (its entries overflowed: the \
+                     iteration diverged)"
+                .to_string(),
+        }
+    }
+
     pub fn residual(&self, model: &Model, x: &[f64], out: &mut [f64]) {
         for b in &self.blocks {
             model.elements[b.element].residual(x, &mut out[b.row0..b.row0 + b.rows]);

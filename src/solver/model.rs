@@ -53,6 +53,47 @@ impl Cable {
             .map(|w| (elements::at(x, w[1]) - elements::at(x, w[0])).norm())
             .sum()
     }
+
+    /// grad L . w: the length's rate under joint velocities w (m/s), or
+    /// grad L . a for any joint vector a.
+    pub fn length_rate(&self, x: &[f64], w: &[f64]) -> f64 {
+        self.path
+            .windows(2)
+            .map(|s| {
+                let d = elements::at(x, s[1]) - elements::at(x, s[0]);
+                d.dot(&(elements::at(w, s[1]) - elements::at(w, s[0]))) / d.norm()
+            })
+            .sum()
+    }
+
+    /// Lddot = sum_j e_j . (a_q - a_p) + (|w_j|^2 - (e_j . w_j)^2) / l_j
+    /// (m/s^2), w_j the segment's relative velocity.
+    pub fn length_accel(&self, x: &[f64], v: &[f64], a: &[f64]) -> f64 {
+        use elements::at;
+        self.path
+            .windows(2)
+            .map(|s| {
+                let d = at(x, s[1]) - at(x, s[0]);
+                let l = d.norm();
+                let e = d / l;
+                let w = at(v, s[1]) - at(v, s[0]);
+                e.dot(&(at(a, s[1]) - at(a, s[0]))) + (w.norm_squared() - e.dot(&w).powi(2)) / l
+            })
+            .sum()
+    }
+
+    /// q += scale grad L.
+    pub fn add_length_gradient(&self, x: &[f64], scale: f64, q: &mut [f64]) {
+        for s in self.path.windows(2) {
+            let (p, r) = (s[0], s[1]);
+            let d = elements::at(x, r) - elements::at(x, p);
+            let e = d * (scale / d.norm());
+            for k in 0..3 {
+                q[3 * r + k] += e[k];
+                q[3 * p + k] -= e[k];
+            }
+        }
+    }
 }
 
 #[derive(Debug)]

@@ -33,8 +33,8 @@ pub struct SolverSettings {
     // --- Newmark integration (stage `integrator`) ---
     /// Members are elastic in the Newmark step: each member row holds
     /// Phi + c lambda = 0 (c = L / EA, the element's `axial_stiffness_n`),
-    /// rows that are not members hold it with c = 1e-6 of the stiffest
-    /// member's, and the step solves positions and multipliers together
+    /// rows that are not members hold it with c = `rigid_row_compliance_rel`
+    /// of the stiffest member's, and the step solves positions and multipliers together
     /// (index 3) instead of projecting onto the rigid constraints.
     pub elastic_members: bool,
     /// Elastic members' relaxation time tau (s): each row holds
@@ -42,6 +42,11 @@ pub struct SolverSettings {
     /// vibration (far above any step's resolution) is overdamped instead of
     /// ringing undamped under the trapezoidal rule.
     pub member_relaxation_s: f64,
+    /// Elastic members: the compliance of the rows that are not members
+    /// (supports, pivots, hinges, latched sleeves without a compliant
+    /// latch), relative to the stiffest member's: rigid next to every
+    /// member, yet S + D stays positive definite however redundant the rows.
+    pub rigid_row_compliance_rel: f64,
     /// Fixed-point iterations of one Newmark step before it counts as not converged.
     pub newmark_max_iterations: usize,
     /// The iteration has converged when the estimated error of the
@@ -208,6 +213,12 @@ pub struct SolverSettings {
     /// no transient: it latches rigid, after the others' transients.
     pub latch_immobile_rel: f64,
 
+    // --- speed-controlled motors (stage `motor`) ---
+    /// The motors' k x k system is singular (a motor the structure cannot
+    /// move, or two that move it alike) where a pivot falls below this
+    /// fraction of its largest diagonal: the motor goes to its tension limit.
+    pub motor_pivot_rel: f64,
+
     // --- mobility (the rank decision itself is `crate::solver::rank`) ---
     /// Largest model (coordinates) whose mobility is counted by a dense SVD
     /// when the backend reveals no rank.
@@ -226,6 +237,7 @@ impl Default for SolverSettings {
             initial_tol_m: 1e-6,
             elastic_members: false,
             member_relaxation_s: 0.1,
+            rigid_row_compliance_rel: 1e-6,
             newmark_max_iterations: 60,
             newmark_tol_rel: 1e-12,
             newmark_tol_position_m: 1e-14,
@@ -261,6 +273,7 @@ impl Default for SolverSettings {
             latch_settle_rel: 1e-3,
             latch_max_periods: 50.0,
             latch_immobile_rel: 1e-9,
+            motor_pivot_rel: 1e-12,
             rank_check_max_coords: 1500,
         }
     }
@@ -324,6 +337,8 @@ impl SolverSettings {
             ("latch_settle_rel", self.latch_settle_rel),
             ("latch_max_periods", self.latch_max_periods),
             ("latch_immobile_rel", self.latch_immobile_rel),
+            ("rigid_row_compliance_rel", self.rigid_row_compliance_rel),
+            ("motor_pivot_rel", self.motor_pivot_rel),
         ];
         for (key, v) in positive {
             if !(v.is_finite() && v > 0.0) {
@@ -358,6 +373,8 @@ impl SolverSettings {
                 self.made_energy_min_substep_fraction,
             ),
             ("step_end_rel", self.step_end_rel),
+            ("rigid_row_compliance_rel", self.rigid_row_compliance_rel),
+            ("motor_pivot_rel", self.motor_pivot_rel),
         ] {
             if v >= 1.0 {
                 return Err(format!("[solver] {key} = {v}: it must be below 1"));

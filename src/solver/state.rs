@@ -192,6 +192,41 @@ pub struct State {
 }
 
 impl State {
+    /// The model at rest at t = 0, before the simulator settles it: its
+    /// initial positions, the cables at their model tensions under tension
+    /// control, nothing latched.
+    pub fn at_rest(model: &Model) -> State {
+        let n = model.n_coords();
+        State {
+            t_s: 0.0,
+            x: model.x0.clone(),
+            v: vec![0.0; n],
+            a: vec![0.0; n],
+            locked: vec![false; model.elements.len()],
+            cable_tension_cmd_n: model.cables.iter().map(|c| c.tension_n).collect(),
+            motors: model
+                .cables
+                .iter()
+                .map(|c| MotorState {
+                    speed_cmd_m_s: None,
+                    hold: MotorHold::Tension,
+                    length_ref_m: c.length_m(&model.x0),
+                    tension_cmd_n: c.tension_n,
+                })
+                .collect(),
+            cables: model.cables.iter().map(CableEval::for_cable).collect(),
+            lambda: Vec::new(),
+            energy: Energy::default(),
+            locks: Vec::new(),
+            transients: Vec::new(),
+            max_violation_m: 0.0,
+            mechanisms: 0,
+            deployed: false,
+            deploy_time_s: None,
+            steps: 0,
+        }
+    }
+
     pub fn kinetic_energy_j(&self, model: &Model) -> f64 {
         kinetic_energy_j(model, &self.v)
     }
@@ -246,7 +281,7 @@ impl State {
 
     /// The cable's reel-in rate -Ldot (m/s).
     pub fn reel_in_rate_m_s(&self, model: &Model, ci: usize) -> f64 {
-        -crate::solver::simulator::cable_length_rate(&model.cables[ci], &self.x, &self.v)
+        -model.cables[ci].length_rate(&self.x, &self.v)
     }
 
     pub fn locks_engaged(&self, model: &Model) -> usize {

@@ -199,3 +199,40 @@ impl SolverKind {
         }
     }
 }
+
+/// Solves a small dense k x k system `mat` y = `rhs` (row-major) in place (Gaussian elimination,
+/// partial pivoting); false if a pivot is below `tiny` times the largest
+/// diagonal (a motor the structure cannot move, or two that move it alike).
+pub fn solve_small(mat: &mut [f64], rhs: &mut [f64], tiny: f64) -> bool {
+    let k = rhs.len();
+    let scale = (0..k).map(|i| mat[i * k + i].abs()).fold(0.0, f64::max);
+    for col in 0..k {
+        let p = (col..k)
+            .max_by(|&a, &b| mat[a * k + col].abs().total_cmp(&mat[b * k + col].abs()))
+            .unwrap_or(col);
+        if !(mat[p * k + col].abs() > tiny * scale) {
+            return false;
+        }
+        if p != col {
+            for j in 0..k {
+                mat.swap(p * k + j, col * k + j);
+            }
+            rhs.swap(p, col);
+        }
+        for r in col + 1..k {
+            let f = mat[r * k + col] / mat[col * k + col];
+            for j in col..k {
+                mat[r * k + j] -= f * mat[col * k + j];
+            }
+            rhs[r] -= f * rhs[col];
+        }
+    }
+    for col in (0..k).rev() {
+        let mut sum = rhs[col];
+        for j in col + 1..k {
+            sum -= mat[col * k + j] * rhs[j];
+        }
+        rhs[col] = sum / mat[col * k + col];
+    }
+    true
+}

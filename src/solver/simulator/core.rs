@@ -92,8 +92,7 @@ pub(super) struct Core {
     /// What the stepping loop did (the aux solver's work is not counted).
     pub stats: SolverStats,
     /// Elastic members (`SolverSettings::elastic_members`): per row its
-    /// compliance c (m/N; rows that are not members 1e-6 of the stiffest
-    /// member's), whether it is a member, D = c / beta of the solve in
+    /// compliance c (m/N; rows that are not members `rigid_compliance`), whether it is a member, D = c / beta of the solve in
     /// progress, and Phi and A V (scratch of the right-hand sides).
     pub row_compliance: Vec<f64>,
     pub row_member: Vec<bool>,
@@ -402,8 +401,7 @@ impl Core {
     /// Elastic members (`step_s` Some(h)): near the flat state S is nearly
     /// singular (nearly redundant rows) and an iterative solve on it does not
     /// converge. w is then the same quantity with every row as stiff as the
-    /// model's rigid rows (compliance c_r = `rigid_compliance`, 1e-6 of the
-    /// stiffest member's), over a step of length h: with X moving by
+    /// model's rigid rows (compliance c_r = `rigid_compliance`), over a step of length h: with X moving by
     /// beta = h^2/4 + tau h/2 per unit of A (Newmark), D = c_r / beta and,
     /// by Woodbury,
     ///
@@ -494,10 +492,10 @@ impl Core {
     }
 }
 
-/// The compliance given to the rows that are not members (m/N): 1e-6 of
-/// the stiffest member's, rigid next to every member.
+/// The compliance given to the rows that are not members (m/N):
+/// `rigid_row_compliance_rel` of the stiffest member's.
 fn rigid_compliance(model: &Model) -> f64 {
-    1e-6 * model.stiffest_compliance_m_per_n
+    model.solver.rigid_row_compliance_rel * model.stiffest_compliance_m_per_n
 }
 
 /// The compliance of a latched sleeve's row (m/N): its tube's L/EA, in

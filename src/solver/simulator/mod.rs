@@ -35,15 +35,13 @@ mod springs;
 
 use self::core::{Core, TrialCopy};
 use self::events::gap;
-use super::cable::CableEval;
 use super::jacobian::Jacobian;
 use super::linsolve::{SolveMode, SolverKind};
 use super::model::Model;
 use super::settings::SolverSettings;
-use super::state::{Energy, MotorHold, MotorState, State};
+use super::state::State;
 use super::stats::SolverStats;
 use super::{SolverError, StopWhy};
-pub use motor::length_rate as cable_length_rate;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Instant;
@@ -126,7 +124,7 @@ impl Simulator {
         let core = Core::new(&model, &locked, opts.solver.make());
         let n = model.n_coords();
         let mut sim = Simulator {
-            state: blank_state(&model),
+            state: State::at_rest(&model),
             model,
             core,
             opts,
@@ -149,7 +147,7 @@ impl Simulator {
     /// consistent initial accelerations and mobility.
     fn initialize(&mut self) -> Result<(), SolverError> {
         let (model, st) = (&self.model, &self.settings);
-        let mut state = blank_state(model);
+        let mut state = State::at_rest(model);
         for &e in &model.locks {
             state.locked[e] = gap(model, e, &model.x0).abs() <= st.lock_tol_m;
         }
@@ -342,30 +340,7 @@ impl Simulator {
     pub fn step(&mut self, dt: f64) -> Result<usize, SolverError> {
         self.step_stages(dt).map_err(|e| match e {
             SolverError::NonFiniteJacobian => {
-                let m = &self.model;
-                SolverError::NonFinite(match self.core.jac.non_finite_element() {
-                    Some((e, 1)) => format!(
-                        "constraint Jacobian, in the rows of {} `{}` (joints {})",
-                        m.elements[e].kind(),
-                        m.elements[e].name(),
-                        m.elements[e]
-                            .joints()
-                            .iter()
-                            .map(|&j| m.joints[j].name.as_str())
-                            .collect::<Vec<_>>()
-                            .join(", ")
-                    ),
-                    Some((e, n)) => format!(
-                        "constraint Jacobian, in the rows of {n} elements, the first {} `{}` \
-                         (the iteration diverged)",
-                        m.elements[e].kind(),
-                        m.elements[e].name()
-                    ),
-                    // (finite entries whose products overflowed)
-                    None => "constraint Jacobian's products (its entries overflowed: the \
-                             iteration diverged)"
-                        .to_string(),
-                })
+                SolverError::NonFinite(self.core.jac.describe_non_finite(&self.model))
             }
             e => e,
         })
@@ -696,38 +671,6 @@ enum TrialLedger {
     MadeEnergy,
     /// It missed by more than its budget: halved (step-size control).
     OverBudget,
-}
-
-fn blank_state(model: &Model) -> State {
-    let n = model.n_coords();
-    State {
-        t_s: 0.0,
-        x: model.x0.clone(),
-        v: vec![0.0; n],
-        a: vec![0.0; n],
-        locked: vec![false; model.elements.len()],
-        cable_tension_cmd_n: model.cables.iter().map(|c| c.tension_n).collect(),
-        motors: model
-            .cables
-            .iter()
-            .map(|c| MotorState {
-                speed_cmd_m_s: None,
-                hold: MotorHold::Tension,
-                length_ref_m: c.length_m(&model.x0),
-                tension_cmd_n: c.tension_n,
-            })
-            .collect(),
-        cables: model.cables.iter().map(CableEval::for_cable).collect(),
-        lambda: Vec::new(),
-        energy: Energy::default(),
-        locks: Vec::new(),
-        transients: Vec::new(),
-        max_violation_m: 0.0,
-        mechanisms: 0,
-        deployed: false,
-        deploy_time_s: None,
-        steps: 0,
-    }
 }
 
 /// Failures a shorter sub-step may cure: a Newmark iteration that did not

@@ -30,8 +30,8 @@
 use super::core::Core;
 use super::Simulator;
 use crate::solver::cable;
-use crate::solver::elements::at;
-use crate::solver::model::{Cable, Model};
+use crate::solver::linsolve::solve_small;
+use crate::solver::model::Model;
 use crate::solver::settings::SolverSettings;
 use crate::solver::state::{kinetic_energy_j, MotorHold, State};
 use crate::solver::SolverError;
@@ -86,6 +86,20 @@ impl MotorWork {
         self.c_save.resize(rows, 0.0);
     }
 
+    /// Solves the k x k system in `mat`, `rhs` (its solution into `rhs`);
+    /// an error where a pivot is below `motor_pivot_rel` of the largest
+    /// diagonal (a motor the structure cannot move, or two that move it alike).
+    fn solve(&mut self, model: &Model) -> Result<(), SolverError> {
+        if solve_small(&mut self.mat, &mut self.rhs, model.solver.motor_pivot_rel) {
+            return Ok(());
+        }
+        Err(SolverError::Invalid(format!(
+            "the structure cannot move along the cable `{}` of a speed-controlled motor \
+             (it is locked up or at a singular configuration)",
+            model.cables[self.order[0]].name
+        )))
+    }
+
     pub fn any_tracking(&self) -> bool {
         self.speed_m_s.iter().any(Option::is_some)
     }
@@ -110,82 +124,6 @@ impl MotorWork {
             }
         }
     }
-}
-
-/// grad L . w: the cable length's rate under joint velocities w (m/s), or
-/// grad L . a for any joint vector a.
-pub fn length_rate(c: &Cable, x: &[f64], w: &[f64]) -> f64 {
-    c.path
-        .windows(2)
-        .map(|s| {
-            let d = at(x, s[1]) - at(x, s[0]);
-            d.dot(&(at(w, s[1]) - at(w, s[0]))) / d.norm()
-        })
-        .sum()
-}
-
-/// Lddot = sum_j e_j . (a_q - a_p) + (|w_j|^2 - (e_j . w_j)^2) / l_j (m/s^2).
-pub fn length_accel(c: &Cable, x: &[f64], v: &[f64], a: &[f64]) -> f64 {
-    c.path
-        .windows(2)
-        .map(|s| {
-            let d = at(x, s[1]) - at(x, s[0]);
-            let l = d.norm();
-            let e = d / l;
-            let w = at(v, s[1]) - at(v, s[0]);
-            e.dot(&(at(a, s[1]) - at(a, s[0]))) + (w.norm_squared() - e.dot(&w).powi(2)) / l
-        })
-        .sum()
-}
-
-/// q += scale grad L.
-fn add_length_gradient(c: &Cable, x: &[f64], scale: f64, q: &mut [f64]) {
-    for s in c.path.windows(2) {
-        let (p, r) = (s[0], s[1]);
-        let d = at(x, r) - at(x, p);
-        let e = d * (scale / d.norm());
-        for k in 0..3 {
-            q[3 * r + k] += e[k];
-            q[3 * p + k] -= e[k];
-        }
-    }
-}
-
-/// Solves the k x k system `mat` y = `rhs` in place (Gaussian elimination,
-/// partial pivoting); false if a pivot is below `tiny` times the largest
-/// diagonal (a motor the structure cannot move, or two that move it alike).
-fn solve_small(mat: &mut [f64], rhs: &mut [f64], tiny: f64) -> bool {
-    let k = rhs.len();
-    let scale = (0..k).map(|i| mat[i * k + i].abs()).fold(0.0, f64::max);
-    for col in 0..k {
-        let p = (col..k)
-            .max_by(|&a, &b| mat[a * k + col].abs().total_cmp(&mat[b * k + col].abs()))
-            .unwrap_or(col);
-        if !(mat[p * k + col].abs() > tiny * scale) {
-            return false;
-        }
-        if p != col {
-            for j in 0..k {
-                mat.swap(p * k + j, col * k + j);
-            }
-            rhs.swap(p, col);
-        }
-        for r in col + 1..k {
-            let f = mat[r * k + col] / mat[col * k + col];
-            for j in col..k {
-                mat[r * k + j] -= f * mat[col * k + j];
-            }
-            rhs[r] -= f * rhs[col];
-        }
-    }
-    for col in (0..k).rev() {
-        let mut sum = rhs[col];
-        for j in col + 1..k {
-            sum -= mat[col * k + j] * rhs[j];
-        }
-        rhs[col] = sum / mat[col * k + col];
-    }
-    true
 }
 
 impl Core {
@@ -245,17 +183,11 @@ impl Core {
         for &ci in &mw.order {
             let c = &model.cables[ci];
             for &ck in &mw.order {
-                mw.mat.push(length_rate(c, &self.x, &mw.resp[ck]));
+                mw.mat.push(c.length_rate(&self.x, &mw.resp[ck]));
             }
-            mw.rhs.push(-length_accel(c, &self.x, &self.v, &mw.a0));
+            mw.rhs.push(-c.length_accel(&self.x, &self.v, &mw.a0));
         }
-        if !solve_small(&mut mw.mat, &mut mw.rhs, 1e-12) {
-            return Err(SolverError::Invalid(format!(
-                "the structure cannot move along the cable `{}` of a speed-controlled motor \
-                 (it is locked up or at a singular configuration)",
-                model.cables[mw.order[0]].name
-            )));
-        }
+        mw.solve(model)?;
         self.a.copy_from_slice(&mw.a0);
         self.lambda[..m].copy_from_slice(&mw.lambda0[..m]);
         for oi in 0..k {
@@ -295,7 +227,7 @@ impl Core {
         for oi in 0..self.motor.order.len() {
             let ci = self.motor.order[oi];
             self.q.fill(0.0);
-            add_length_gradient(&model.cables[ci], &self.x, 1.0, &mut self.q);
+            model.cables[ci].add_length_gradient(&self.x, 1.0, &mut self.q);
             self.c[..m].fill(0.0);
             self.solve_accelerations(model)?;
             self.motor.resp[ci].copy_from_slice(&self.a);
@@ -305,7 +237,7 @@ impl Core {
         for &ci in &mw.order {
             for &ck in &mw.order {
                 mw.mat
-                    .push(length_rate(&model.cables[ci], &self.x, &mw.resp[ck]));
+                    .push(model.cables[ci].length_rate(&self.x, &mw.resp[ck]));
             }
         }
         Ok(())
@@ -315,12 +247,7 @@ impl Core {
     /// solution of the k x k system for the residuals in `rhs`.
     fn motor_correct(&mut self, model: &Model, positions: bool) -> Result<(), SolverError> {
         let mw = &mut self.motor;
-        if !solve_small(&mut mw.mat, &mut mw.rhs, 1e-12) {
-            return Err(SolverError::Invalid(format!(
-                "the structure cannot move along the cable `{}` of a speed-controlled motor",
-                model.cables[mw.order[0]].name
-            )));
-        }
+        mw.solve(model)?;
         let target = if positions { &mut self.x } else { &mut self.v };
         for (oi, &ci) in mw.order.iter().enumerate() {
             for (t, d) in target.iter_mut().zip(&mw.resp[ci]) {
@@ -376,7 +303,7 @@ impl Core {
         for &ci in &mw.order {
             let speed = mw.speed_m_s[ci].unwrap_or(0.0);
             mw.rhs
-                .push(length_rate(&model.cables[ci], &self.x, &self.v) + speed);
+                .push(model.cables[ci].length_rate(&self.x, &self.v) + speed);
         }
         self.motor_correct(model, false)
     }
@@ -509,7 +436,7 @@ impl Simulator {
                 continue;
             };
             let c = &self.model.cables[ci];
-            let reel_in = -length_rate(c, &self.state.x, &self.state.v);
+            let reel_in = -c.length_rate(&self.state.x, &self.state.v);
             match m.hold {
                 MotorHold::Tracking => {
                     let t = self.state.cables[ci].segment_tension_n[0];
