@@ -15,6 +15,7 @@ pub mod model;
 pub mod rank;
 pub mod settings;
 pub mod simulator;
+pub mod springs;
 pub mod state;
 pub mod stats;
 pub mod vec3;

@@ -18,6 +18,7 @@ use super::jacobian::Jacobian;
 use super::SolverError;
 
 pub mod dense;
+pub mod gmres;
 pub mod sparse;
 mod static_ldlt;
 

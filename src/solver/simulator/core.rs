@@ -12,6 +12,7 @@ use crate::solver::least_work::LeastWork;
 use crate::solver::linsolve::SolverKind;
 use crate::solver::linsolve::{ConstraintSolver, FactorReport, SolveMode, SolveReport};
 use crate::solver::model::Model;
+pub use crate::solver::springs::StepGains;
 use crate::solver::state::State;
 use crate::solver::stats::SolverStats;
 use crate::solver::SolverError;
@@ -76,8 +77,6 @@ pub(super) struct Core {
     /// The least-work split of redundant multipliers (member forces on
     /// request, latch impulses), with a backend of its own; made at first use.
     pub least_work: Option<LeastWork>,
-    /// Engaged compliant latches: (element, k in N/m, c in N s/m).
-    pub springs: Vec<(usize, f64, f64)>,
     /// Compliant latches reached while others engage, along which the
     /// structure cannot move (inverse effective mass 0: e.g. the ring's
     /// radial sleeves, shortest at the flat state): (element, instant it
@@ -85,8 +84,8 @@ pub(super) struct Core {
     /// its gap at the sub-step's start, 0 if unknown). They latch rigid once
     /// the transients are over; one found past its lock is a missed latch.
     pub waiting: Vec<(usize, f64, f64)>,
-    /// The compliant elements' buffers.
-    pub element_springs: super::springs::ElementSprings,
+    /// The compliant elements' and engaged compliant latches' buffers.
+    pub element_springs: crate::solver::springs::ElementSprings,
     /// Speed-controlled motors: which track in the current solve, and their buffers.
     pub motor: super::motor::MotorWork,
     /// What the stepping loop did (the aux solver's work is not counted).
@@ -157,9 +156,8 @@ impl Core {
             a_prev4: vec![0.0; n],
             prev_h4: None,
             least_work: None,
-            springs: Vec::new(),
             waiting: Vec::new(),
-            element_springs: super::springs::ElementSprings::new(model),
+            element_springs: crate::solver::springs::ElementSprings::new(model),
             motor: super::motor::MotorWork::new(model, m),
             stats: SolverStats::default(),
             row_compliance: Vec::new(),
@@ -520,29 +518,4 @@ pub(super) struct TrialCopy {
     /// A^T lambda, which the ledger books when the trial is accepted.
     strain_j: f64,
     member_force: Vec<f64>,
-}
-
-/// A Newmark step's X_{n+1} = X_n + h V_n + h^2 ((1/2 - beta) A_n + beta A_{n+1}),
-/// V_{n+1} = V_n + h ((1 - gamma) A_n + gamma A_{n+1}): what X_{n+1} and
-/// V_{n+1} move per unit of A_{n+1}, beta h^2 (s^2) and gamma h (s).
-#[derive(Clone, Copy, Debug)]
-pub struct StepGains {
-    pub position_s2: f64,
-    pub velocity_s: f64,
-}
-
-impl StepGains {
-    /// The average-acceleration rule: beta = 1/4, gamma = 1/2.
-    pub fn trapezoid(h: f64) -> StepGains {
-        StepGains {
-            position_s2: 0.25 * h * h,
-            velocity_s: 0.5 * h,
-        }
-    }
-
-    /// A spring-damper's force change per unit of A_{n+1} along it:
-    /// k beta h^2 + c gamma h.
-    pub fn spring(&self, k: f64, c: f64) -> f64 {
-        k * self.position_s2 + c * self.velocity_s
-    }
 }

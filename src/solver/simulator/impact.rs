@@ -29,6 +29,7 @@ use super::Simulator;
 use crate::solver::linsolve::SolveMode;
 use crate::solver::model::Model;
 use crate::solver::settings::SolverSettings;
+use crate::solver::springs::sleeve_motion_at;
 use crate::solver::state::{LatchTransient, LockEvent, State};
 use crate::solver::SolverError;
 
@@ -318,7 +319,7 @@ impl Simulator {
         let model = &self.model;
         let el = &model.elements[e];
         let (k, c) = el.latch_spring().unwrap_or_default();
-        let Some((gap_m, rate)) = sleeve_motion(model, e, &self.state) else {
+        let Some((gap_m, rate)) = sleeve_motion_at(model, e, &self.state.x, &self.state.v) else {
             return Ok(false);
         };
         let Some((w, period_s)) = self.latch_mode(e, k)? else {
@@ -360,7 +361,7 @@ impl Simulator {
             impulse_ns: 0.0,
             dissipated_j: 0.0,
         });
-        self.core.springs.push((e, k, c));
+        self.core.element_springs.engage_latch(&self.model, e, k, c);
         self.core.stats.latches += 1;
         self.core.stats.compliant_latches += 1;
         Ok(true)
@@ -393,7 +394,7 @@ impl Simulator {
     /// be a bound) and no compliant element adds stiffness along n.
     fn one_spring_mode(&mut self) -> bool {
         let n = self.model.n_coords();
-        if !self.core.element_springs.is_empty() || n > self.settings.rank_check_max_coords {
+        if self.core.element_springs.has_elements() || n > self.settings.rank_check_max_coords {
             return false;
         }
         self.core.jac.fill(&self.model, &self.state.x);
@@ -514,7 +515,7 @@ impl Simulator {
         self.state
             .transients
             .retain(|tr| !due.contains(&tr.element));
-        self.core.springs.retain(|s| !due.contains(&s.0));
+        self.core.element_springs.release_latches(Some(due));
         let jumps = self.lock_rigidly(due)?;
         for ((event, sign, impulse_ns, lost_j), (impulse, lost, _)) in
             settled.into_iter().zip(jumps)
@@ -683,112 +684,4 @@ pub(super) fn engaging(s: &State, core: &Core, e: usize) -> bool {
 /// roundoff of the period: sub-steps land on the window's end).
 fn window_over(tr: &LatchTransient, t: f64) -> bool {
     t >= tr.window_start_s + tr.period_s * (1.0 - 1e-12)
-}
-
-/// A sleeve's lock gap g = l - L_lock (m) and extension rate ldot (m/s) at
-/// (x, v).
-fn sleeve_motion_at(model: &Model, e: usize, x: &[f64], v: &[f64]) -> Option<(f64, f64)> {
-    let el = &model.elements[e];
-    Some((el.lock_gap(x)?, el.extension(x, v)?.1))
-}
-
-fn sleeve_motion(model: &Model, e: usize, s: &crate::solver::state::State) -> Option<(f64, f64)> {
-    sleeve_motion_at(model, e, &s.x, &s.v)
-}
-
-/// After an accepted step from t0 of length h: a compliant latch's tension
-/// at the new state, the peak of sign * T (the largest force through the
-/// latch) located inside the step, and the extremes over the current window.
-/// Inside the step the gap is the cubic Hermite interpolant of its values
-/// and rates at both ends,
-///   G(s) = g0 + h r0 s + A s^2 + B s^3,  A = 3 (g1 - g0) - h (2 r0 + r1),
-///   B = h (r0 + r1) - 2 (g1 - g0),
-/// and the tension T(s) = k G(s) + (c / h) G'(s), a cubic in s. It is built
-/// from positions and velocities only: the accelerations of the
-/// average-acceleration rule ring on the stiff modes a sub-step does not
-/// resolve (elastic members), and a rate c l'' taken from them would make
-/// peaks that are not there. A peak is reported once the force has turned;
-/// a later maximum replaces it only where it exceeds it by more than
-/// `settle_rel` (an undamped latch repeats its first peak every period).
-pub(super) fn track_transient(
-    model: &Model,
-    tr: &mut LatchTransient,
-    ev: &mut LockEvent,
-    t0: f64,
-    h: f64,
-    (x, v): (&[f64], &[f64]),
-    settle_rel: f64,
-) {
-    let Some((g1, r1)) = sleeve_motion_at(model, tr.element, x, v) else {
-        return;
-    };
-    let (k, c, sign) = (tr.stiffness_n_per_m, tr.damping_n_s_per_m, tr.sign);
-    let (g0, r0) = (tr.gap_m, tr.rate_m_s);
-    let f0 = sign * tr.force_n;
-    (tr.gap_m, tr.rate_m_s) = (g1, r1);
-    tr.force_n = k * g1 + c * r1;
-    let f1 = sign * tr.force_n;
-    tr.window_max_n = tr.window_max_n.max(f1);
-    tr.window_min_n = tr.window_min_n.min(f1);
-    let (qa, qb) = (
-        3.0 * (g1 - g0) - h * (2.0 * r0 + r1),
-        h * (r0 + r1) - 2.0 * (g1 - g0),
-    );
-    // sign * T(s) and sign * dT/ds = sign (k G' + (c/h) G'')
-    let force = |s: f64| {
-        sign * (k * (g0 + s * (h * r0 + s * (qa + s * qb)))
-            + c / h * (h * r0 + s * (2.0 * qa + 3.0 * s * qb)))
-    };
-    let slope = |s: f64| {
-        sign * (k * (h * r0 + s * (2.0 * qa + 3.0 * s * qb)) + c / h * (2.0 * qa + 6.0 * s * qb))
-    };
-    // (the force at contact, c ldot, is the peak where it only falls after)
-    let mut best = if ev.peak_force_n.is_none() && f0 > f1 {
-        (f0, t0)
-    } else {
-        (f1, t0 + h)
-    };
-    // maxima inside the step: the roots of the quadratic slope
-    //   sign [3 k B s^2 + (2 k A + 6 c B / h) s + (k h r0 + 2 c A / h)]
-    // where it turns from + to -
-    let (ca, cb, cc) = (
-        3.0 * k * qb,
-        2.0 * k * qa + 6.0 * c * qb / h,
-        k * h * r0 + 2.0 * c * qa / h,
-    );
-    for s in quadratic_roots(ca, cb, cc).into_iter().flatten() {
-        let turns = sign * (2.0 * ca * s + cb) < 0.0;
-        if (0.0..=1.0).contains(&s) && turns && force(s) > best.0 {
-            best = (force(s), t0 + s * h);
-        }
-    }
-    let fd1 = slope(1.0);
-    let turned = ev.peak_force_n.is_some() || fd1 <= 0.0;
-    if turned
-        && ev
-            .peak_force_n
-            .map_or(true, |p| best.0 > p * (1.0 + settle_rel))
-    {
-        ev.peak_force_n = Some(best.0);
-        ev.time_of_peak_s = Some(best.1);
-    }
-}
-
-/// The real roots of a s^2 + b s + c (one where a vanishes, none where both
-/// a and b do).
-fn quadratic_roots(a: f64, b: f64, c: f64) -> [Option<f64>; 2] {
-    if a.abs() <= 1e-300 {
-        return [(b != 0.0).then(|| -c / b), None];
-    }
-    let disc = b * b - 4.0 * a * c;
-    if disc < 0.0 {
-        return [None, None];
-    }
-    // (the root of larger magnitude first, the other from the product
-    // c / a: no cancellation)
-    let q = -0.5 * (b + b.signum() * disc.sqrt());
-    if q == 0.0 {
-        return [Some(0.0), None];
-    }
-    [Some(q / a), Some(c / q)]
 }

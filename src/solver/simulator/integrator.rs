@@ -18,8 +18,8 @@ use crate::solver::state::State;
 use crate::solver::SolverError;
 
 impl Core {
-    /// Applied forces Q at the trial (x, v): cables, compliant latches and
-    /// elements, damping, gravity. The cable
+    /// Applied forces Q at the trial (x, v): cables, compliant elements and
+    /// latches, damping, gravity. The cable
     /// inertia term uses `a_guess` as the acceleration estimate.
     fn applied_forces(&mut self, model: &Model, cmd: &[f64]) {
         self.q.fill(0.0);
@@ -49,23 +49,8 @@ impl Core {
             );
             cable::add_forces(c, &self.cables[ci], &self.x, &mut self.q);
         }
-        // Engaged compliant latches: tension T = k (l - L) + c ldot along the
-        // sleeve, pulling its joints together when positive.
-        for &(e, k, c) in &self.springs {
-            let el = &model.elements[e];
-            let (Some(g), Some((l, rate))) = (el.lock_gap(&self.x), el.extension(&self.x, &self.v))
-            else {
-                continue;
-            };
-            let t = k * g + c * rate;
-            let (ja, jb) = (el.joints()[0], el.joints()[1]);
-            for k3 in 0..3 {
-                let f = t * (self.x[3 * jb + k3] - self.x[3 * ja + k3]) / l;
-                self.q[3 * ja + k3] += f;
-                self.q[3 * jb + k3] -= f;
-            }
-        }
-        // Compliant elements: -A^T (k Phi + c A Xdot).
+        // Compliant elements and engaged compliant latches:
+        // -A^T (k Phi + c A Xdot).
         self.element_springs
             .add_forces(model, &self.x, &self.v, &mut self.q);
         let g = model.gravity_m_s2;
@@ -194,36 +179,13 @@ impl Core {
     ) -> Result<(), SolverError> {
         self.stats.newmark_steps += 1;
         let cmd = &s.cable_tension_cmd_n;
-        // Predictor: A_{n+1} from the last step starts, each candidate judged
-        // by how well it would have predicted A_n (below); without the history
-        // to judge one, linear from two of equal length, else A_n. Only the
-        // start of the fixed-point iteration changes, not its converged result.
-        // Extrapolating A quadratically (error O(h^3)) takes ~0.5 fewer
-        // iterations per step on the ring than linearly.
-        // A stiff damped mode (a pulley's friction stuck inside its blend, a
-        // damper of time constant far below h) rings under the trapezoidal
-        // rule: its V is smooth, its A alternates in sign from step to step,
-        // and extrapolating A misses by 8 times its amplitude (the iteration
-        // then starts far out of the blend). Extrapolating V quadratically
-        // instead, A_{n+1} = 2 (V_{n+1} - V_n) / h - A_n, is
-        //     A_{n+1} = A_n + A_{n-1} - A_{n-2},
-        // exact for the alternation, O(h^2) on smooth motion. The ringing
-        // mode's amplitude and the smooth motion both drift, so A seen on
-        // every other step is smooth: A = a + b k + (-1)^k (c + d k) fitted
-        // to the last four step starts extrapolates as
-        //     A_{n+1} = 2 A_{n-1} - A_{n-3},
-        // linear along each parity (on the bundled ring it halved the
-        // iterations per step). Of these, the one that would have predicted
-        // the last step best (kinetic norm) is taken.
-        // With only two step starts of the same length before A_n (after a
-        // step of another length, or a restart), the same choice is made
-        // between the linear A_{n+1} = 2 A_n - A_{n-1} and the alternation
-        // A_{n+1} = A_{n-1}: taking the quadratic one unjudged there missed a
-        // ringing mode by 8 times its amplitude, the step failed and was
-        // halved, and the history started again (on the 180-sided ring,
-        // every third step). With fewer (`predictor`), the alternation is
-        // taken where A_{n-2} is nearer A_n than A_{n-1} is, else the linear
-        // extrapolation or A_n as before.
+        // Predictor: A_{n+1} extrapolated from the last step starts, by the
+        // candidate (`Predictor`) that would have predicted A_n best: quadratic
+        // in A for smooth motion, quadratic in V (A_n + A_{n-1} - A_{n-2}) for
+        // a stiff damped mode whose A alternates in sign from step to step
+        // (a pulley stuck inside its friction blend), linear along each
+        // parity for such a mode whose amplitude drifts (docs/solver.md,
+        // Predictor). Only the iteration's start changes, not its result.
         let best = self.predictor(model, s, h);
         for i in 0..self.a_guess.len() {
             let a = s.a[i];
@@ -492,14 +454,8 @@ impl Core {
             let friction = stiff && self.friction_blend_active(model);
             if friction
                 || (stiff
-                    && self.element_springs.max_gain(model, &self.x, gains).max(
-                        super::springs::latch_springs_max_gain(
-                            model,
-                            &self.springs,
-                            &self.x,
-                            gains,
-                        ),
-                    ) >= st.newmark_newton_trigger)
+                    && self.element_springs.max_gain(model, &self.x, gains)
+                        >= st.newmark_newton_trigger)
             {
                 newton_for_friction = friction;
                 newton = true;

@@ -22,10 +22,10 @@
 //! left of the balance, which stays a check).
 
 use super::core::Core;
-use super::impact::track_transient;
 use super::Simulator;
 use crate::solver::cable::CableEval;
 use crate::solver::model::Model;
+use crate::solver::springs::track_transient;
 use crate::solver::state::{kinetic_energy_j, Energy, State};
 
 impl Simulator {

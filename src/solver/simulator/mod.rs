@@ -31,7 +31,6 @@ mod ledger;
 mod motor;
 mod newton;
 mod projection;
-mod springs;
 
 use self::core::{Core, TrialCopy};
 use self::events::gap;
@@ -155,7 +154,7 @@ impl Simulator {
         core.prev_h = None;
         core.backward_euler = false;
         // (a reset in a compliant latch's transient: its spring goes with it)
-        core.springs.clear();
+        core.element_springs.release_latches(None);
         core.waiting.clear();
         core.motor.take_modes(&state);
         core.set_pattern(model, &state.locked);
@@ -254,14 +253,15 @@ impl Simulator {
         self.limits = limits;
     }
 
+    fn cable(&self, index: usize) -> Result<&super::model::Cable, SolverError> {
+        let no_such = || SolverError::Invalid(format!("no cable with index {index}"));
+        self.model.cables.get(index).ok_or_else(no_such)
+    }
+
     /// Sets a cable's motor-end tension from the next step on (a motor
     /// under speed control returns to tension control).
     pub fn set_cable_tension(&mut self, cable: usize, tension_n: f64) -> Result<(), SolverError> {
-        let c = self
-            .model
-            .cables
-            .get(cable)
-            .ok_or_else(|| SolverError::Invalid(format!("no cable with index {cable}")))?;
+        let c = self.cable(cable)?;
         if !(tension_n.is_finite() && tension_n >= 0.0 && tension_n <= c.max_tension_n) {
             return Err(SolverError::Invalid(format!(
                 "tension {tension_n} N for cable `{}` must be finite, >= 0 and <= {} N",
@@ -413,8 +413,7 @@ impl Simulator {
             // against (1 - x) / (1 + x), x = h/2 times the damper's rate),
             // the ledger booking that rule's own term (`integrator_work_j`).
             // With rigid members, whose projections that term does not
-            // cover (rerouted ring: balance 5.9e-5 against 1.1e-6), the
-            // transient is resolved by halving h.
+            // cover, the transient is resolved by halving h (docs/solver.md).
             if self.core.blend_entry && !self.core.backward_euler {
                 if self.settings.elastic_members {
                     self.core.stats.fallbacks.blend_entry_backward_euler += 1;
@@ -559,12 +558,8 @@ impl Simulator {
             return TrialLedger::Sound { budget_used: 0.0 };
         }
         // (the budget controls the average-acceleration rule's error, which
-        // falls as h^3; a backward-Euler trial is the rule chosen for a
-        // transient it steps over, and books its own term: halving it only
-        // hands the transient back to the other rule, and from rest, where
-        // the budget is at the roundoff of the energies, the ledger's
-        // roundoff exceeds it (capstan hold: 235 trials then accepted over
-        // budget))
+        // falls as h^3; a backward-Euler trial books its own term, and
+        // halving it only hands the transient back to the other rule)
         if self.core.backward_euler {
             return TrialLedger::Sound { budget_used: 0.0 };
         }

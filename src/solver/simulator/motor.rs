@@ -100,6 +100,25 @@ impl MotorWork {
         )))
     }
 
+    /// The tracking cables, in order, into `order`.
+    fn take_order(&mut self) {
+        self.order.clear();
+        let tracking = self
+            .speed_m_s
+            .iter()
+            .enumerate()
+            .filter(|(_, s)| s.is_some());
+        self.order.extend(tracking.map(|(ci, _)| ci));
+    }
+
+    /// The largest |L_i(x) - target_i| over the tracking motors (m).
+    fn length_miss_m(&self, model: &Model, x: &[f64]) -> f64 {
+        (0..model.cables.len())
+            .filter(|&ci| self.speed_m_s[ci].is_some())
+            .map(|ci| (model.cables[ci].length_m(x) - self.target_m[ci]).abs())
+            .fold(0.0, f64::max)
+    }
+
     pub fn any_tracking(&self) -> bool {
         self.speed_m_s.iter().any(Option::is_some)
     }
@@ -163,9 +182,7 @@ impl Core {
         mw.lambda0[..m].copy_from_slice(&self.lambda[..m]);
         mw.q_save.copy_from_slice(&self.q);
         mw.c_save[..m].copy_from_slice(&self.c[..m]);
-        mw.order.clear();
-        mw.order
-            .extend((0..model.cables.len()).filter(|&ci| mw.speed_m_s[ci].is_some()));
+        mw.take_order();
         for oi in 0..self.motor.order.len() {
             let ci = self.motor.order[oi];
             self.q.copy_from_slice(&self.motor.g[ci]);
@@ -218,12 +235,7 @@ impl Core {
             "projections use the plain masses"
         );
         let m = self.jac.nrows;
-        self.motor.order.clear();
-        for ci in 0..model.cables.len() {
-            if self.motor.speed_m_s[ci].is_some() {
-                self.motor.order.push(ci);
-            }
-        }
+        self.motor.take_order();
         for oi in 0..self.motor.order.len() {
             let ci = self.motor.order[oi];
             self.q.fill(0.0);
@@ -267,11 +279,7 @@ impl Core {
         mode: crate::solver::linsolve::SolveMode,
     ) -> Result<(), SolverError> {
         for _ in 0..st.projection_max_iterations {
-            let worst = (0..model.cables.len())
-                .filter(|&ci| self.motor.speed_m_s[ci].is_some())
-                .map(|ci| (model.cables[ci].length_m(&self.x) - self.motor.target_m[ci]).abs())
-                .fold(0.0, f64::max);
-            if worst <= st.projection_tol_m {
+            if self.motor.length_miss_m(model, &self.x) <= st.projection_tol_m {
                 return Ok(());
             }
             self.factor(model, mode)?;
@@ -286,10 +294,7 @@ impl Core {
             self.project_positions(model, st, mode)?;
         }
         Err(SolverError::Projection {
-            violation_m: (0..model.cables.len())
-                .filter(|&ci| self.motor.speed_m_s[ci].is_some())
-                .map(|ci| (model.cables[ci].length_m(&self.x) - self.motor.target_m[ci]).abs())
-                .fold(0.0, f64::max),
+            violation_m: self.motor.length_miss_m(model, &self.x),
         })
     }
 
@@ -319,11 +324,7 @@ impl Simulator {
         cable: usize,
         speed_m_s: Option<f64>,
     ) -> Result<(), SolverError> {
-        let c = self
-            .model
-            .cables
-            .get(cable)
-            .ok_or_else(|| SolverError::Invalid(format!("no cable with index {cable}")))?;
+        let c = self.cable(cable)?;
         if let Some(s) = speed_m_s {
             if !s.is_finite() {
                 return Err(SolverError::Invalid(format!(

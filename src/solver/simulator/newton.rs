@@ -34,13 +34,13 @@
 
 use super::core::Core;
 use crate::solver::cable;
+use crate::solver::linsolve::gmres::{weighted_dot, Gmres};
 use crate::solver::model::Model;
 use crate::solver::settings::SolverSettings;
 use crate::solver::SolverError;
 
 /// Buffers of the Newton steps (made once; rows-sized ones follow the pattern).
 pub(super) struct NewtonWork {
-    kmax: usize,
     n: usize,
     /// The accepted iterate, its residual G(A) - A and kinetic norm, the
     /// direction, and the line search's step fraction.
@@ -62,14 +62,7 @@ pub(super) struct NewtonWork {
     /// h/2 |P M^-1 dQ/dV| seen by the iteration (1 and above: it alone
     /// makes the plain iteration diverge).
     pub gain: f64,
-    // GMRES: basis (kmax + 1 vectors), Hessenberg matrix (column-major,
-    // (kmax + 1) x kmax), Givens rotations, rhs and solution.
-    basis: Vec<f64>,
-    hess: Vec<f64>,
-    cs: Vec<f64>,
-    sn: Vec<f64>,
-    g: Vec<f64>,
-    y: Vec<f64>,
+    gmres: Gmres,
     // operator work: dv, dQ, the constrained response, multipliers, zero c
     dv: Vec<f64>,
     dq: Vec<f64>,
@@ -81,7 +74,6 @@ pub(super) struct NewtonWork {
 impl NewtonWork {
     pub fn new(kmax: usize, n: usize, rows: usize) -> NewtonWork {
         NewtonWork {
-            kmax,
             n,
             a_acc: vec![0.0; n],
             r_acc: vec![0.0; n],
@@ -94,12 +86,7 @@ impl NewtonWork {
             kept_side: 0,
             r_dir0: 0.0,
             gain: 0.0,
-            basis: vec![0.0; (kmax + 1) * n],
-            hess: vec![0.0; (kmax + 1) * kmax],
-            cs: vec![0.0; kmax],
-            sn: vec![0.0; kmax],
-            g: vec![0.0; kmax + 1],
-            y: vec![0.0; kmax],
+            gmres: Gmres::new(kmax, n),
             dv: vec![0.0; n],
             dq: vec![0.0; n],
             da: vec![0.0; n],
@@ -113,13 +100,6 @@ impl NewtonWork {
         self.lambda.resize(rows, 0.0);
         self.zero_c.resize(rows, 0.0);
     }
-}
-
-fn m_dot(mass: &[f64], a: &[f64], b: &[f64]) -> f64 {
-    mass.iter()
-        .zip(a.iter().zip(b))
-        .map(|(m, (x, y))| m * x * y)
-        .sum()
 }
 
 impl Core {
@@ -189,7 +169,7 @@ impl Core {
             let nw = &mut self.newton;
             nw.alpha = 1.0;
             nw.trials = 0;
-            nw.lo = (0.0, m_dot(&model.mass, &nw.r_acc, &nw.dir));
+            nw.lo = (0.0, weighted_dot(&model.mass, &nw.r_acc, &nw.dir));
             nw.r_dir0 = nw.lo.1;
             nw.hi = None;
             nw.kept_side = 0;
@@ -286,18 +266,20 @@ impl Core {
         self.a_guess.copy_from_slice(&self.newton.a_acc);
     }
 
-    /// w = (I - G') x for basis vector `j` into basis vector `j + 1`
-    /// (unnormalized); G' x = P M_eff^-1 (dQ/dV (gamma h x) + dQ/dX (beta h^2 x))
+    /// w = (I - G') x; G' x = P M_eff^-1 (dQ/dV (gamma h x) + dQ/dX (beta h^2 x))
     /// (h/2 and h^2/4 for the average acceleration, `StepGains`):
-    /// the friction's blend, the compliant elements' springs and the
+    /// the friction's blend and the springs of compliant elements and
     /// engaged compliant latches.
-    fn newton_apply(&mut self, model: &Model, h: f64, j: usize) -> Result<(), SolverError> {
+    fn newton_apply(
+        &mut self,
+        model: &Model,
+        h: f64,
+        x: &[f64],
+        w: &mut [f64],
+    ) -> Result<(), SolverError> {
         let gains = self.step_gains(h);
         let nw = &mut self.newton;
         let n = nw.n;
-        let (done, rest) = nw.basis.split_at_mut((j + 1) * n);
-        let x = &done[j * n..];
-        let w = &mut rest[..n];
         for i in 0..n {
             nw.dv[i] = gains.velocity_s * x[i];
         }
@@ -310,14 +292,6 @@ impl Core {
         }
         self.element_springs
             .add_force_derivative(model, gains, x, &mut nw.dq);
-        super::springs::add_latch_spring_derivative(
-            model,
-            &self.springs,
-            &self.x,
-            gains,
-            x,
-            &mut nw.dq,
-        );
         w.copy_from_slice(x);
         if nw.dq.iter().all(|v| *v == 0.0) {
             return Ok(());
@@ -355,8 +329,8 @@ impl Core {
         Ok(())
     }
 
-    /// The Newton direction: (I - G') dir = r_acc by GMRES (kinetic inner
-    /// product, modified Gram-Schmidt, Givens rotations), from dir = 0.
+    /// The Newton direction: (I - G') dir = r_acc by GMRES in the kinetic
+    /// inner product, from dir = 0.
     fn newton_direction(
         &mut self,
         model: &Model,
@@ -364,78 +338,17 @@ impl Core {
         st: &SolverSettings,
     ) -> Result<(), SolverError> {
         debug_assert!(self.implicit_h == Some(h));
-        let mass = &model.mass;
-        let (n, kmax) = (self.newton.n, self.newton.kmax);
-        let beta = m_dot(mass, &self.newton.r_acc, &self.newton.r_acc).sqrt();
-        self.newton.dir.fill(0.0);
-        if beta == 0.0 {
-            return Ok(());
-        }
-        {
-            let nw = &mut self.newton;
-            for i in 0..n {
-                nw.basis[i] = nw.r_acc[i] / beta;
-            }
-            nw.g.fill(0.0);
-            nw.g[0] = beta;
-        }
-        let ld = kmax + 1; // leading dimension of hess
-        let mut k = 0; // columns made
-        while k < kmax {
-            self.newton_apply(model, h, k)?;
-            let nw = &mut self.newton;
-            let (done, rest) = nw.basis.split_at_mut((k + 1) * n);
-            let w = &mut rest[..n];
-            for i in 0..=k {
-                let vi = &done[i * n..(i + 1) * n];
-                let hik = m_dot(mass, vi, w);
-                nw.hess[k * ld + i] = hik;
-                for (wv, v) in w.iter_mut().zip(vi) {
-                    *wv -= hik * v;
-                }
-            }
-            let hk1 = m_dot(mass, w, w).sqrt();
-            nw.hess[k * ld + k + 1] = hk1;
-            if hk1 > 0.0 {
-                for wv in w.iter_mut() {
-                    *wv /= hk1;
-                }
-            }
-            // previous rotations on the new column, then its own
-            for i in 0..k {
-                let (a, b) = (nw.hess[k * ld + i], nw.hess[k * ld + i + 1]);
-                nw.hess[k * ld + i] = nw.cs[i] * a + nw.sn[i] * b;
-                nw.hess[k * ld + i + 1] = -nw.sn[i] * a + nw.cs[i] * b;
-            }
-            let (a, b) = (nw.hess[k * ld + k], nw.hess[k * ld + k + 1]);
-            let r = a.hypot(b);
-            let (c, s) = if r == 0.0 { (1.0, 0.0) } else { (a / r, b / r) };
-            nw.cs[k] = c;
-            nw.sn[k] = s;
-            nw.hess[k * ld + k] = r;
-            nw.hess[k * ld + k + 1] = 0.0;
-            nw.g[k + 1] = -s * nw.g[k];
-            nw.g[k] *= c;
-            k += 1;
-            if nw.g[k].abs() <= st.newmark_newton_krylov_tol_rel * beta || hk1 == 0.0 {
-                break;
-            }
-        }
-        let nw = &mut self.newton;
-        for i in (0..k).rev() {
-            let mut v = nw.g[i];
-            for j in i + 1..k {
-                v -= nw.hess[j * ld + i] * nw.y[j];
-            }
-            let d = nw.hess[i * ld + i];
-            nw.y[i] = if d == 0.0 { 0.0 } else { v / d };
-        }
-        for i in 0..k {
-            let yi = nw.y[i];
-            for (d, v) in nw.dir.iter_mut().zip(&nw.basis[i * n..(i + 1) * n]) {
-                *d += yi * v;
-            }
-        }
-        Ok(())
+        // (the buffers leave the core while its operator runs)
+        let mut gmres = std::mem::take(&mut self.newton.gmres);
+        let (r_acc, mut dir) = (
+            std::mem::take(&mut self.newton.r_acc),
+            std::mem::take(&mut self.newton.dir),
+        );
+        let tol = st.newmark_newton_krylov_tol_rel;
+        let solved = gmres.solve(&model.mass, &r_acc, tol, &mut dir, |x, w| {
+            self.newton_apply(model, h, x, w)
+        });
+        (self.newton.gmres, self.newton.r_acc, self.newton.dir) = (gmres, r_acc, dir);
+        solved
     }
 }

@@ -1,3 +1,5 @@
+//! The spring-damper force law of compliant elements and compliant latches.
+//!
 //! Compliant elements (`Constraint::spring`): an element whose rows are held
 //! by a spring-damper instead of being imposed. On its residual Phi (m) and
 //! rate A Xdot it applies the force
@@ -7,10 +9,16 @@
 //! steps, stage `newton`), stores the elastic
 //! energy 1/2 k |Phi|^2 and dissipates c |A Xdot|^2 (stage `ledger`). The
 //! buffers are made once, with the model.
+//!
+//! An engaged compliant latch is the same law on its sleeve's lock row,
+//! Phi = l - L_lock: the tension T = k g + c ldot along the sleeve
+//! (`engage_latch`, until it turns rigid, `release_latches`). Its energy and
+//! dissipation are booked per latch by the ledger (`book_move` leaves it
+//! out).
 
-use super::core::StepGains;
-use crate::solver::elements::ElementSpring;
-use crate::solver::model::Model;
+use super::elements::ElementSpring;
+use super::model::Model;
+use super::state::{LatchTransient, LockEvent};
 
 /// One compliant element's buffers: its residual and rate rows at the last
 /// evaluation and the one before, and its Jacobian rows.
@@ -37,10 +45,12 @@ fn row_force(spring: &ElementSpring, phi: f64, rate: f64) -> f64 {
     }
 }
 
-/// Every compliant element of a model.
+/// Every compliant element of a model, then the engaged compliant latches.
 #[derive(Debug, Default)]
-pub(super) struct ElementSprings {
+pub(crate) struct ElementSprings {
     work: Vec<SpringWork>,
+    /// How many of `work` are the model's compliant elements.
+    elements: usize,
 }
 
 impl ElementSprings {
@@ -62,18 +72,56 @@ impl ElementSprings {
                     jac: vec![0.0; r * 3 * el.joints().len()],
                 })
             })
-            .collect();
-        ElementSprings { work }
+            .collect::<Vec<_>>();
+        ElementSprings {
+            elements: work.len(),
+            work,
+        }
     }
 
-    pub fn is_empty(&self) -> bool {
-        self.work.is_empty()
+    /// Whether the model has compliant elements (latches aside).
+    pub fn has_elements(&self) -> bool {
+        self.elements > 0
+    }
+
+    /// A compliant latch of stiffness k and damping c engages on sleeve `e`.
+    pub fn engage_latch(&mut self, model: &Model, e: usize, k: f64, c: f64) {
+        let spring = ElementSpring {
+            rows: 1,
+            stiffness_n_per_m: k,
+            damping_n_s_per_m: c,
+            unilateral: false,
+        };
+        self.work.push(SpringWork {
+            element: e,
+            spring,
+            phi: vec![0.0],
+            rate: vec![0.0],
+            phi_before: vec![0.0],
+            rate_before: vec![0.0],
+            jac: vec![0.0; 3 * model.elements[e].joints().len()],
+        });
+    }
+
+    /// The latches on the sleeves `turned` leave (they turned rigid), or all.
+    pub fn release_latches(&mut self, turned: Option<&[usize]>) {
+        let n = self.elements;
+        let mut i = 0;
+        self.work.retain(|w| {
+            i += 1;
+            i <= n || turned.is_some_and(|t| !t.contains(&w.element))
+        });
     }
 
     /// Phi and A Xdot of every compliant element at (x, v); the previous
     /// values move to `*_before`.
-    fn eval(&mut self, model: &Model, x: &[f64], v: &[f64]) {
-        for w in &mut self.work {
+    fn eval(&mut self, model: &Model, x: &[f64], v: &[f64], latches: bool) {
+        let upto = if latches {
+            self.work.len()
+        } else {
+            self.elements
+        };
+        for w in &mut self.work[..upto] {
             let el = &model.elements[w.element];
             std::mem::swap(&mut w.phi, &mut w.phi_before);
             std::mem::swap(&mut w.rate, &mut w.rate_before);
@@ -119,7 +167,7 @@ impl ElementSprings {
 
     /// Adds the springs' forces -A^T (k Phi + c A Xdot) at (x, v) to `q`.
     pub fn add_forces(&mut self, model: &Model, x: &[f64], v: &[f64], q: &mut [f64]) {
-        self.eval(model, x, v);
+        self.eval(model, x, v, true);
         for w in &self.work {
             let joints = model.elements[w.element].joints();
             let width = 3 * joints.len();
@@ -181,13 +229,13 @@ impl ElementSprings {
         (x0, v0): (&[f64], &[f64]),
         (x1, v1): (&[f64], &[f64]),
     ) -> (f64, f64) {
-        if self.work.is_empty() {
+        if self.elements == 0 {
             return (0.0, 0.0);
         }
-        self.eval(model, x0, v0);
-        self.eval(model, x1, v1);
+        self.eval(model, x0, v0, false);
+        self.eval(model, x1, v1, false);
         let (mut elastic_j, mut damper_j) = (0.0, 0.0);
-        for w in &self.work {
+        for w in &self.work[..self.elements] {
             let (k, c) = (w.spring.stiffness_n_per_m, w.spring.damping_n_s_per_m);
             for r in 0..w.phi.len() {
                 let (p0, p1) = (w.phi_before[r], w.phi[r]);
@@ -205,92 +253,153 @@ impl ElementSprings {
     }
 }
 
-/// The engaged compliant latches of a transient, each (element, k, c): the
-/// tension T = k g + c gdot along the sleeve's unit axis u (`Core::springs`).
-/// Its derivative per unit change dA of the accelerations (X and V move by
-/// beta h^2 and gamma h per unit A, `gains`):
-/// dT = (k beta h^2 + c gamma h) u . (dA_b - dA_a),
-/// pulling a by dT u and b by -dT u. Left out are the terms from the turn
-/// of u: the transverse force T/l (I - u u^T) h^2/4 and the damper's
-/// c (v_b - v_a) . du (at a latch's load and a transient's sub-steps both
-/// are far below the joints' mass; Newton's line search judges every
-/// iterate on the exact residual). Adds it to `dq`.
-pub fn add_latch_spring_derivative(
-    model: &Model,
-    springs: &[(usize, f64, f64)],
-    x: &[f64],
-    gains: StepGains,
-    da: &[f64],
-    dq: &mut [f64],
-) {
-    for &(e, k, c) in springs {
-        let Some((ja, jb, u)) = sleeve_axis(model, e, x) else {
-            continue;
-        };
-        let gain = gains.spring(k, c);
-        let rate: f64 = (0..3)
-            .map(|k3| u[k3] * (da[3 * jb + k3] - da[3 * ja + k3]))
-            .sum();
-        for k3 in 0..3 {
-            let f = gain * rate * u[k3];
-            dq[3 * ja + k3] += f;
-            dq[3 * jb + k3] -= f;
+/// A Newmark step's X_{n+1} = X_n + h V_n + h^2 ((1/2 - beta) A_n + beta A_{n+1}),
+/// V_{n+1} = V_n + h ((1 - gamma) A_n + gamma A_{n+1}): what X_{n+1} and
+/// V_{n+1} move per unit of A_{n+1}, beta h^2 (s^2) and gamma h (s).
+#[derive(Clone, Copy, Debug)]
+pub struct StepGains {
+    pub position_s2: f64,
+    pub velocity_s: f64,
+}
+
+impl StepGains {
+    /// The average-acceleration rule: beta = 1/4, gamma = 1/2.
+    pub fn trapezoid(h: f64) -> StepGains {
+        StepGains {
+            position_s2: 0.25 * h * h,
+            velocity_s: 0.5 * h,
         }
     }
+
+    /// A spring-damper's force change per unit of A_{n+1} along it:
+    /// k beta h^2 + c gamma h.
+    pub fn spring(&self, k: f64, c: f64) -> f64 {
+        k * self.position_s2 + c * self.velocity_s
+    }
 }
 
-/// The largest gain of the Newmark fixed-point map on an engaged compliant
-/// latch in a step of `gains`, (k beta h^2 + c gamma h) u^T (W_a + W_b) u (W the joints'
-/// inverse masses): at 1 and above the latches alone keep the plain
-/// iteration from contracting (as `ElementSprings::max_gain`). 0 with none.
-pub fn latch_springs_max_gain(
+/// A sleeve's lock gap g = l - L_lock (m) and extension rate ldot (m/s) at
+/// (x, v).
+pub(crate) fn sleeve_motion_at(
     model: &Model,
-    springs: &[(usize, f64, f64)],
+    e: usize,
     x: &[f64],
-    gains: StepGains,
-) -> f64 {
-    let mut max_gain = 0.0f64;
-    for &(e, k, c) in springs {
-        let Some((ja, jb, u)) = sleeve_axis(model, e, x) else {
-            continue;
-        };
-        let inv_mass: f64 = (0..3)
-            .map(|k3| u[k3] * u[k3] * (model.inv_mass[3 * ja + k3] + model.inv_mass[3 * jb + k3]))
-            .sum();
-        max_gain = max_gain.max(gains.spring(k, c) * inv_mass);
-    }
-    max_gain
+    v: &[f64],
+) -> Option<(f64, f64)> {
+    let el = &model.elements[e];
+    Some((el.lock_gap(x)?, el.extension(x, v)?.1))
 }
 
-/// A sleeve's end joints (a, b) and unit axis u = (X_b - X_a) / l at x;
-/// None at zero length.
-fn sleeve_axis(model: &Model, e: usize, x: &[f64]) -> Option<(usize, usize, [f64; 3])> {
-    let joints = model.elements[e].joints();
-    let (ja, jb) = (joints[0], joints[1]);
-    let mut u = [0.0; 3];
-    for (k3, u) in u.iter_mut().enumerate() {
-        *u = x[3 * jb + k3] - x[3 * ja + k3];
+/// After an accepted step from t0 of length h: a compliant latch's tension
+/// at the new state, the peak of sign * T (the largest force through the
+/// latch) located inside the step, and the extremes over the current window.
+/// Inside the step the gap is the cubic Hermite interpolant of its values
+/// and rates at both ends,
+///   G(s) = g0 + h r0 s + A s^2 + B s^3,  A = 3 (g1 - g0) - h (2 r0 + r1),
+///   B = h (r0 + r1) - 2 (g1 - g0),
+/// and the tension T(s) = k G(s) + (c / h) G'(s), a cubic in s. It is built
+/// from positions and velocities only: the accelerations of the
+/// average-acceleration rule ring on the stiff modes a sub-step does not
+/// resolve (elastic members), and a rate c l'' taken from them would make
+/// peaks that are not there. A peak is reported once the force has turned;
+/// a later maximum replaces it only where it exceeds it by more than
+/// `settle_rel` (an undamped latch repeats its first peak every period).
+pub(crate) fn track_transient(
+    model: &Model,
+    tr: &mut LatchTransient,
+    ev: &mut LockEvent,
+    t0: f64,
+    h: f64,
+    (x, v): (&[f64], &[f64]),
+    settle_rel: f64,
+) {
+    let Some((g1, r1)) = sleeve_motion_at(model, tr.element, x, v) else {
+        return;
+    };
+    let (k, c, sign) = (tr.stiffness_n_per_m, tr.damping_n_s_per_m, tr.sign);
+    let (g0, r0) = (tr.gap_m, tr.rate_m_s);
+    let f0 = sign * tr.force_n;
+    (tr.gap_m, tr.rate_m_s) = (g1, r1);
+    tr.force_n = k * g1 + c * r1;
+    let f1 = sign * tr.force_n;
+    tr.window_max_n = tr.window_max_n.max(f1);
+    tr.window_min_n = tr.window_min_n.min(f1);
+    let (qa, qb) = (
+        3.0 * (g1 - g0) - h * (2.0 * r0 + r1),
+        h * (r0 + r1) - 2.0 * (g1 - g0),
+    );
+    // sign * T(s) and sign * dT/ds = sign (k G' + (c/h) G'')
+    let force = |s: f64| {
+        sign * (k * (g0 + s * (h * r0 + s * (qa + s * qb)))
+            + c / h * (h * r0 + s * (2.0 * qa + 3.0 * s * qb)))
+    };
+    let slope = |s: f64| {
+        sign * (k * (h * r0 + s * (2.0 * qa + 3.0 * s * qb)) + c / h * (2.0 * qa + 6.0 * s * qb))
+    };
+    // (the force at contact, c ldot, is the peak where it only falls after)
+    let mut best = if ev.peak_force_n.is_none() && f0 > f1 {
+        (f0, t0)
+    } else {
+        (f1, t0 + h)
+    };
+    // maxima inside the step: the roots of the quadratic slope
+    //   sign [3 k B s^2 + (2 k A + 6 c B / h) s + (k h r0 + 2 c A / h)]
+    // where it turns from + to -
+    let (ca, cb, cc) = (
+        3.0 * k * qb,
+        2.0 * k * qa + 6.0 * c * qb / h,
+        k * h * r0 + 2.0 * c * qa / h,
+    );
+    for s in quadratic_roots(ca, cb, cc).into_iter().flatten() {
+        let turns = sign * (2.0 * ca * s + cb) < 0.0;
+        if (0.0..=1.0).contains(&s) && turns && force(s) > best.0 {
+            best = (force(s), t0 + s * h);
+        }
     }
-    let l = (u[0] * u[0] + u[1] * u[1] + u[2] * u[2]).sqrt();
-    if l <= 0.0 {
-        return None;
+    let fd1 = slope(1.0);
+    let turned = ev.peak_force_n.is_some() || fd1 <= 0.0;
+    if turned
+        && ev
+            .peak_force_n
+            .map_or(true, |p| best.0 > p * (1.0 + settle_rel))
+    {
+        ev.peak_force_n = Some(best.0);
+        ev.time_of_peak_s = Some(best.1);
     }
-    u.iter_mut().for_each(|u| *u /= l);
-    Some((ja, jb, u))
+}
+
+/// The real roots of a s^2 + b s + c (one where a vanishes, none where both
+/// a and b do).
+fn quadratic_roots(a: f64, b: f64, c: f64) -> [Option<f64>; 2] {
+    if a.abs() <= 1e-300 {
+        return [(b != 0.0).then(|| -c / b), None];
+    }
+    let disc = b * b - 4.0 * a * c;
+    if disc < 0.0 {
+        return [None, None];
+    }
+    // (the root of larger magnitude first, the other from the product
+    // c / a: no cancellation)
+    let q = -0.5 * (b + b.signum() * disc.sqrt());
+    if q == 0.0 {
+        return [Some(0.0), None];
+    }
+    [Some(q / a), Some(c / q)]
 }
 
 #[cfg(test)]
 mod tests {
-    use super::{add_latch_spring_derivative, latch_springs_max_gain, StepGains};
+    use super::{ElementSprings, StepGains};
     use crate::model::generate::{self, LatchParams, MastParams};
 
-    /// The latch springs' derivative against central differences of the
-    /// tension along the sleeve, T = k g + c gdot from the element's own
+    /// An engaged latch's force derivative against central differences of
+    /// its tension along the sleeve, T = k g + c gdot from the element's own
     /// gap and extension rate, at X + (h^2/4) eps dA, V + (h/2) eps dA (the
     /// Newmark move per unit A), from rest (where the terms of the turn of
-    /// u that the derivative leaves out vanish): the axial part of the force
-    /// on each joint, u . dQ, is dT to first order (the transverse part
-    /// T du is orthogonal to u).
+    /// the axis u that the derivative leaves out vanish): the axial part of
+    /// the force on each joint, u . dQ, is dT to first order (the
+    /// transverse part T du is orthogonal to u). Its gain against the
+    /// closed form (k h^2/4 + c h/2)(1/m_a + 1/m_b).
     #[test]
     fn latch_spring_derivative_matches_finite_differences() {
         let params = MastParams {
@@ -303,23 +412,28 @@ mod tests {
         let text = generate::mast(&params).unwrap().to_toml();
         let model = crate::model::parse(&text, "mast.toml").unwrap().model;
         let n = model.n_coords();
-        let springs: Vec<(usize, f64, f64)> = model
+        let latches: Vec<(usize, f64, f64)> = model
             .elements
             .iter()
             .enumerate()
             .filter_map(|(e, el)| el.latch_spring().map(|(k, c)| (e, k, c)))
             .collect();
-        assert!(!springs.is_empty(), "the mast has compliant latches");
+        assert!(!latches.is_empty(), "the mast has compliant latches");
         let x = model.x0.clone();
         let v = vec![0.0; n];
         let da: Vec<f64> = (0..n).map(|i| ((i * 5 % 13) as f64 - 6.0) / 6.0).collect();
         let h = 1e-3;
-        for &(e, k, c) in &springs {
-            // (one spring at a time: the mast's sleeves share joints)
+        let gains = StepGains::trapezoid(h);
+        for &(e, k, c) in &latches {
+            // (one latch at a time: the mast's sleeves share joints)
+            let mut springs = ElementSprings::new(&model);
+            assert!(!springs.has_elements());
+            springs.engage_latch(&model, e, k, c);
+            let mut q = vec![0.0; n];
+            springs.add_forces(&model, &x, &v, &mut q);
             let mut dq = vec![0.0; n];
-            let gains = StepGains::trapezoid(h);
-            add_latch_spring_derivative(&model, &[(e, k, c)], &x, gains, &da, &mut dq);
-            let gain = latch_springs_max_gain(&model, &[(e, k, c)], &x, gains);
+            springs.add_force_derivative(&model, gains, &da, &mut dq);
+            let gain = springs.max_gain(&model, &x, gains);
             let el = &model.elements[e];
             let (ja, jb) = (el.joints()[0], el.joints()[1]);
             // (the mast's joints have one mass in every direction)
@@ -359,6 +473,16 @@ mod tests {
                 axial(jb),
                 -dt_fd
             );
+            // and the force itself: T pulls the joints together, -T u on b
+            let t = k * el.lock_gap(&x).unwrap();
+            let on_b: f64 = (0..3)
+                .map(|k3| (x[3 * jb + k3] - x[3 * ja + k3]) / l * q[3 * jb + k3])
+                .sum();
+            assert!((on_b + t).abs() <= 1e-9 * t.abs(), "{on_b} vs {}", -t);
+            springs.release_latches(Some(&[e]));
+            let mut q2 = vec![0.0; n];
+            springs.add_forces(&model, &x, &v, &mut q2);
+            assert!(q2.iter().all(|f| *f == 0.0), "released");
         }
     }
 }
