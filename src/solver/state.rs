@@ -28,6 +28,24 @@ pub struct LockEvent {
     pub rigid_at_s: Option<f64>,
 }
 
+impl LockEvent {
+    /// Element e reaching its lock at t_s with the closing rate `rate`;
+    /// its impulse, loss and forces are booked as they become known.
+    pub fn new(element: usize, name: &str, time_s: f64, rate: f64) -> LockEvent {
+        LockEvent {
+            element,
+            name: name.to_string(),
+            time_s,
+            impulse_ns: 0.0,
+            energy_lost_j: 0.0,
+            closing_speed_m_s: rate,
+            peak_force_n: None,
+            time_of_peak_s: None,
+            rigid_at_s: None,
+        }
+    }
+}
+
 /// A compliant latch while its engagement transient lasts: a spring-damper
 /// about the lock length, tension T = k (l - L_lock) + c ldot.
 #[derive(Clone, Debug, PartialEq)]

@@ -396,23 +396,16 @@ impl Core {
     ///
     /// Rigid members (`step_s` None): at the current factorization.
     ///
-    /// Elastic members (`step_s` Some(h)): near the flat state S is nearly
-    /// singular (nearly redundant rows) and an iterative solve on it does not
-    /// converge. w is then the same quantity with every row as stiff as the
-    /// model's rigid rows (compliance c_r = `rigid_compliance`), over a step of length h: with X moving by
-    /// beta = h^2/4 + tau h/2 per unit of A (Newmark), D = c_r / beta and,
-    /// by Woodbury,
+    /// Elastic members (`step_s` Some(h)): S is nearly singular near the flat
+    /// state, so w is taken with every row at the rigid rows' compliance c_r
+    /// over a step of length h (beta = h^2/4 + tau h/2, D = c_r / beta):
     ///
     ///     w = J_e (M + beta A^T A / c_r)^-1 J_e^T
-    ///       = J_e (M^-1 - M^-1 A^T (S + D)^-1 A M^-1) J_e^T,
+    ///       = J_e (M^-1 - M^-1 A^T (S + D)^-1 A M^-1) J_e^T   (Woodbury),
     ///
-    /// S + D positive definite however redundant the rows, factored at x.
-    /// Along a mechanism (A u = 0) it is the rigid w; the rows' stiffness
-    /// adds about c_r f / beta, f the structure's static compliance along
-    /// the sleeve per unit c_r (below 1e-9 of the free two-joint value on
-    /// the rings, whose members' own compliance would add 1e6 times as
-    /// much: w of the members' L/EA is the step's response, not a mode of
-    /// the latch, and leaves no latch immobile). The Jacobian is filled at x.
+    /// S + D positive definite, factored at x: the rigid w along a mechanism,
+    /// plus about c_r f / beta (f the static compliance along the sleeve per
+    /// unit c_r; docs/solver.md). The Jacobian is filled at x.
     pub fn inverse_effective_mass(
         &mut self,
         model: &Model,

@@ -1,27 +1,18 @@
-//! Stage `impact`: an element latches. Its rows join the constraint set and
-//! the velocities jump to the new constraint manifold by the mass-orthogonal
-//! projection (an inelastic latch): V+ = V- - M^-1 A^T mu with mu = S^+ A V-,
-//! the impulses. The kinetic energy lost is 1/2 mu . (A V-) per latching row.
-//! Then the mobility of the new constraint set decides whether the truss is
-//! deployed. Impulses are shared among redundant rows by least work
-//! (`crate::solver::least_work`): simultaneous latches of redundant members
-//! share by stiffness.
+//! Stage `impact`: an element latches (docs/solver.md, Latches). Its rows
+//! join the constraint set and the velocities jump to the new manifold by
+//! the mass-orthogonal projection (an inelastic latch):
+//! V+ = V- - M^-1 A^T mu, mu = S^+ A V- the impulses, shared among redundant
+//! rows by least work; the kinetic energy lost is 1/2 mu . (A V-) per row.
+//! The mobility of the new set decides whether the truss is deployed.
 //!
-//! A compliant latch (`Constraint::latch_spring`) engages instead as a
-//! spring-damper about its lock length, T = k (l - L) + c ldot, applied as a
-//! force (`integrator`); the steps resolve its period (`transient_step_s`),
-//! its peak force is located on the Hermite interpolant of T(t), and once its
-//! force swings by at most `latch_settle_rel` of the peak over one period
-//! beyond its net change there (or after `latch_max_periods`) it turns rigid: the joints move back onto the
-//! lock length (by its deflection T/k), the velocities onto the rigid
-//! manifold, and its spring energy with the drive's work over that move go
-//! with the latch loss. With elastic members nothing moves: the sleeve's row
-//! has compliance c = L/EA + 1/k and holds the deflection g, force g / c.
-//! There a compliant latch the structure cannot move along (no transient:
-//! w = 0) latches at once as that row, and engaged latches that other
-//! latches leave immobile turn into it (`retire_immobile_transients`): the
-//! pin is in and the spring in series holds the sleeve, whatever the drive
-//! does meanwhile.
+//! A compliant latch engages instead as a spring-damper about its lock
+//! length, T = k (l - L) + c ldot (`crate::solver::springs`), with steps that
+//! resolve its period (`transient_step_s`); once settled it turns rigid: the
+//! joints move back onto the lock length by T/k, and its spring energy with
+//! the drive's work over that move go with the latch loss. With elastic
+//! members nothing moves: the sleeve's row, of compliance c = L/EA + 1/k,
+//! holds the deflection; a latch the structure cannot move along latches at
+//! once as that row (`retire_immobile_transients`).
 
 use super::core::Core;
 use super::events::gap;
@@ -131,12 +122,7 @@ impl Simulator {
                 immobile.push(e);
             }
         }
-        if self.one_spring_mode() {
-            let one_mode_s = self.spring_mode_period_s();
-            for tr in &mut self.state.transients {
-                tr.period_s = one_mode_s;
-            }
-        }
+        self.share_one_mode_period();
         // A compliant latch the structure cannot move along has no
         // transient of its own. With elastic members it latches now as its
         // row, the tube in series with the latch spring (compliance
@@ -185,17 +171,10 @@ impl Simulator {
     ) -> Result<(), SolverError> {
         let jumps = self.lock_rigidly(elements)?;
         for (&e, (impulse_ns, energy_lost_j, rate)) in elements.iter().zip(jumps) {
-            self.state.locks.push(LockEvent {
-                element: e,
-                name: self.model.elements[e].name().to_string(),
-                time_s: reached_s(e),
-                impulse_ns: impulse_ns.abs(),
-                energy_lost_j,
-                closing_speed_m_s: rate,
-                peak_force_n: None,
-                time_of_peak_s: None,
-                rigid_at_s: None,
-            });
+            let name = self.model.elements[e].name();
+            let mut ev = LockEvent::new(e, name, reached_s(e), rate);
+            (ev.impulse_ns, ev.energy_lost_j) = (impulse_ns.abs(), energy_lost_j);
+            self.state.locks.push(ev);
         }
         self.stamp_deploy_time();
         Ok(())
@@ -327,17 +306,7 @@ impl Simulator {
         };
         let el = &self.model.elements[e];
         let t = self.state.t_s;
-        self.state.locks.push(LockEvent {
-            element: e,
-            name: el.name().to_string(),
-            time_s: t,
-            impulse_ns: 0.0,
-            energy_lost_j: 0.0,
-            closing_speed_m_s: rate,
-            peak_force_n: None,
-            time_of_peak_s: None,
-            rigid_at_s: None,
-        });
+        self.state.locks.push(LockEvent::new(e, el.name(), t, rate));
         // (the gap is zero at engagement to the latch search's tolerance,
         // `latch_tol_m`: the force there is the damper's, c ldot)
         let force_n = c * rate;
@@ -399,6 +368,17 @@ impl Simulator {
         }
         self.core.jac.fill(&self.model, &self.state.x);
         crate::solver::rank::of_jacobian(&self.core.jac) + 1 == n
+    }
+
+    /// Where the engaged latches make one mode (`one_spring_mode`), its
+    /// period is every transient's.
+    fn share_one_mode_period(&mut self) {
+        if !self.state.transients.is_empty() && self.one_spring_mode() {
+            let one_mode_s = self.spring_mode_period_s();
+            for tr in &mut self.state.transients {
+                tr.period_s = one_mode_s;
+            }
+        }
     }
 
     /// 2 pi / sqrt(sum_i k_i w_i) over the engaged latches (s): the period
@@ -573,12 +553,7 @@ impl Simulator {
             self.turn_rigid(&immobile, self.state.t_s)?;
             turned += immobile.len();
         }
-        if !self.state.transients.is_empty() && self.one_spring_mode() {
-            let one_mode_s = self.spring_mode_period_s();
-            for tr in &mut self.state.transients {
-                tr.period_s = one_mode_s;
-            }
-        }
+        self.share_one_mode_period();
         Ok(turned)
     }
 

@@ -338,32 +338,16 @@ impl Core {
         }
     }
 
-    /// The fixed-point iteration of A_{n+1} (converged value in `a_guess`).
-    ///
-    /// Convergence: the error of an iterate is at most rho / (1 - rho) times
-    /// its change for a contraction of rate rho. One ratio of successive
-    /// changes underestimates rho (the first change is dominated by the
-    /// predictor's error in fast-converging components): the true error
-    /// exceeded the estimate by up to 13x on the bundled models, hence the
-    /// safety factor `newmark_rho_safety` (with it, iterating on past every
-    /// such stop found none beyond the tolerance); and never more than the
-    /// change itself (the plain criterion).
-    ///
-    /// Friction: below its slip speed a pulley's friction direction is a
-    /// steep blend (a damper of mu theta T / slip speed), which the map takes
-    /// explicitly; with it the iteration does not contract at the step sizes
-    /// of a deployment (on a ring whose drive nearly balances, every step).
-    /// An iteration that stops contracting (ratio of successive changes at
-    /// least `newmark_newton_trigger`) while the blend is in play goes on
-    /// with Newton steps on the residual (stage `newton`), counted as
-    /// `newmark_newton`; the converged A solves the same equations.
-    ///
-    /// Stalls: basic solves (redundant rows dropped) make a less contractive
-    /// map than least-squares ones where the iterates leave the manifold, so
-    /// a stalled iteration restarts with least-squares solves; near zero
-    /// sliding the steep blend of the friction direction can make it cycle
-    /// between two iterates, so a stall after that restarts with the friction
-    /// direction of the step start. Both are counted fallbacks.
+    /// The fixed-point iteration of A_{n+1} (converged value in `a_guess`;
+    /// docs/solver.md, Integration). Converged where the error estimate
+    /// min(safety rho / (1 - rho), 1) |change| is within tolerance: one ratio
+    /// of successive changes underestimates the contraction rate rho (by up to
+    /// 13x on the bundled models), hence `newmark_rho_safety`. Where the
+    /// friction blend or a stiff spring keeps the map from contracting, it
+    /// goes on with Newton steps (stage `newton`; the same equations). A
+    /// stall restarts with least-squares solves (basic ones make a less
+    /// contractive map off the manifold), then with the friction direction of
+    /// the step start (an iteration cycling across a blend): counted fallbacks.
     fn newmark_iterate(
         &mut self,
         model: &Model,

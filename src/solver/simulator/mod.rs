@@ -198,12 +198,6 @@ impl Simulator {
     pub fn state(&self) -> &State {
         &self.state
     }
-    pub fn options(&self) -> &Options {
-        &self.opts
-    }
-    pub fn settings(&self) -> &SolverSettings {
-        &self.settings
-    }
     pub fn jacobian(&self) -> &Jacobian {
         &self.core.jac
     }

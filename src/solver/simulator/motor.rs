@@ -1,31 +1,16 @@
-//! Stage `motor`: speed-controlled drive motors, a rheonomic constraint on the
-//! cable length whose multiplier is the motor tension.
-//!
-//! A motor that tracks its command reels its cable in at the speed s (m/s;
-//! negative pays out): the cable length L(X) = sum_j |x_{p_j+1} - x_{p_j}|
-//! follows L(t) = L_e - s (t - t_e) from the instant t_e it engaged at the
-//! length L_e. Its tension T is the unknown that holds it:
-//! - accelerations: the applied forces are Q_0 + sum_k T_k g_k, with g_k the
-//!   joint forces of a unit motor tension (the segment tensions of the
-//!   capstan law scaled to T = 1, friction included). The constrained
-//!   accelerations are linear in T: A = A_0 + sum_k T_k A_1k, A_1k the
-//!   response to g_k alone (one more solve with the same factorization).
-//!   Lddot = grad L . A + (convective term) = 0 gives the k x k system
-//!   sum_k (grad L_i . A_1k) T_k = -Lddot_i(A_0).
-//! - positions and velocities, after the structure's own projection:
-//!   mass-orthogonal corrections along d_k, the structure's response to the
-//!   force grad L_k (d_k lies in its tangent space, A d_k = 0), onto
-//!   L_i(X) = L_i(t) and Ldot_i = -s_i.
-//!
-//! A real drive's current limit caps the tension at the cable's
-//! `max_tension_n`: a tracking motor whose tension leaves [0, T_max] at an
-//! accepted sub-step releases to tension control at the limit (`AtLimit`,
-//! stalled or slowed) or at zero (`Slack`, the structure runs ahead), and so
-//! does every tracking motor at a rigid latch (a drive cannot deliver an
-//! impulse). A released motor engages again once its cable runs at the
-//! commanded speed; the velocities then jump onto Ldot = -s (the drive's
-//! impulsive tension, its work the jump's change of kinetic energy, booked
-//! as motor and cable work).
+//! Stage `motor`: speed-controlled drive motors (docs/solver.md,
+//! Speed-controlled motors). A tracking motor holds its cable length
+//! L(X) = sum_j |x_{p_j+1} - x_{p_j}| on L(t) = L_e - s (t - t_e), a
+//! rheonomic constraint whose multiplier is the motor tension T:
+//! - accelerations: A = A_0 + sum_k T_k A_1k (A_1k the response to the
+//!   joint forces g_k of a unit tension), and Lddot_i = 0 gives the k x k
+//!   system sum_k (grad L_i . A_1k) T_k = -Lddot_i(A_0);
+//! - positions and velocities: mass-orthogonal corrections along d_k, the
+//!   structure's response to grad L_k (A d_k = 0), onto L_i(t) and -s_i.
+//! The tension stays in [0, `max_tension_n`]: beyond it the motor releases
+//! (to its limit or slack), and at every rigid latch; a released motor
+//! engages again at its commanded speed by a velocity jump, whose change of
+//! kinetic energy is booked as the drive's work.
 
 use super::core::Core;
 use super::Simulator;

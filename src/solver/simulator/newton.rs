@@ -1,36 +1,20 @@
 //! Newton steps of the Newmark iteration where the fixed-point iteration does
-//! not contract: the stiff terms it treats explicitly are the pulley
-//! friction's blend (sigma = clamp(s / s_slip, -1, 1): below the slip speed a
-//! pulley's friction acts as a viscous damper of mu theta T / s_slip) and the
-//! compliant elements' springs (`springs::add_force_derivative`:
-//! dQ/dA = -(k h^2/4 + c h/2) A^T A).
-//!
-//! The iteration solves A = G(A), G(A) the constrained accelerations at the
-//! Newmark (x, v) of A. Newton on R(A) = G(A) - A with the derivative
-//! G' = P M_eff^-1 dQ/dA of the friction's blend ((dQ/dV) h/2) and the springs (P the constrained
-//! solve, dQ/dV from `cable::add_friction_derivative`, nonzero only at pulleys
-//! sliding slower than their slip speed): (I - G') d = R(A), solved by GMRES
-//! in the kinetic inner product <x, y> = sum m_i x_i y_i, each GMRES iteration
-//! one constrained solve with the iterate's factorization (with elastic
-//! members one pass of the kept LDL^T of S + D, unrefined:
-//! `compliant_response`; a direction needs no more, since the line search
-//! judges every iterate on the exact residual). G' maps into the
-//! structure's free motions, so GMRES needs about as many iterations as there
-//! are mechanisms (one on the double ring) plus one.
-//!
-//! The friction law is piecewise smooth (each pulley's blend saturates at its
-//! slip speed): from a saturated iterate the Newton step can overshoot to the
-//! other side, so the step is halved until the kinetic norm of the residual
-//! decreases (a line search on a residual that is exact: only the step's
-//! direction uses the approximate derivative). The converged A is that of
-//! the plain iteration: the same equations, the same friction law.
-//!
-//! Where many pulleys cross their blends at once (a long cable starting to
-//! slide), the iterates can alternate between the two saturated sides, where
-//! the derivative of the blend is 0 and the Newton direction is the plain
-//! step; the line search then fails. The Newton steps are retried once from
-//! the best iterate with each crossed pulley's secant slope back to the step
-//! start (`newton_secant`, counted as `fallbacks.newmark_newton_secant`).
+//! not contract (docs/solver.md, Newton switch). The iteration solves
+//! A = G(A), G(A) the constrained accelerations at the Newmark (x, v) of A;
+//! its stiff explicit terms are the pulley friction's blend (below the slip
+//! speed a damper of mu theta T / s_slip) and the springs of compliant
+//! elements and latches (dQ/dA = -(k h^2/4 + c h/2) A^T A). Newton on
+//! R(A) = G(A) - A solves (I - G') d = R(A), G' = P M_eff^-1 dQ/dA (P the
+//! constrained solve), by GMRES in the kinetic inner product, one
+//! constrained solve per product; G' maps into the free motions, so GMRES
+//! needs about as many iterations as there are mechanisms plus one. The
+//! friction law is piecewise smooth, so the step is cut back (line search,
+//! `newton_advance`) until the residual's kinetic norm decreases: only the
+//! direction uses the approximate derivative, and the converged A is the
+//! plain iteration's. Where the iterates alternate between the saturated
+//! sides of many blends, the Newton steps are retried once from the best
+//! iterate with each pulley's secant slope back to the step start
+//! (`newton_secant`).
 
 use super::core::Core;
 use crate::solver::cable;
