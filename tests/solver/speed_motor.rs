@@ -281,3 +281,32 @@ fn a_cable_reeled_in_from_near_flat_goes_slack_and_takes_up_again() {
         "balance {coarse:e} at dt 0.05, {fine:e} at dt 0.025"
     );
 }
+
+/// The synchronized ring has one mechanism and two drive cables: both at a
+/// speed would ask one motion for two speeds (the motors' system is
+/// singular in its second column), which the step refuses, naming both
+/// cables; one at a speed and the other at its tension steps.
+#[test]
+fn two_speed_controlled_cables_on_one_motion_are_refused_by_name() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("models/double_ring_synchronized.toml");
+    let model = truss_deploy::model::load(&path)
+        .expect("bundled model")
+        .model;
+    assert_eq!(model.cables.len(), 2);
+    let names: Vec<String> = model.cables.iter().map(|c| c.name.clone()).collect();
+    let mut sim = Simulator::new(model, Options::default()).expect("simulator");
+    sim.set_cable_speed(0, Some(0.1)).unwrap();
+    sim.set_cable_speed(1, Some(0.1)).unwrap();
+    let e = sim.step(0.05).unwrap_err().to_string();
+    assert!(
+        e.contains("same motion") && e.contains(&names[0]) && e.contains(&names[1]),
+        "{e}"
+    );
+    sim.set_cable_speed(1, None).unwrap();
+    for _ in 0..4 {
+        sim.step(0.05).unwrap();
+    }
+    assert_eq!(sim.state().motors[0].hold, MotorHold::Tracking);
+    assert!(sim.state().reeled_in_m(sim.model(), 0) > 0.0);
+}

@@ -201,10 +201,11 @@ impl SolverKind {
     }
 }
 
-/// Solves a small dense k x k system `mat` y = `rhs` (row-major) in place (Gaussian elimination,
-/// partial pivoting); false if a pivot is below `tiny` times the largest
-/// diagonal (a motor the structure cannot move, or two that move it alike).
-pub fn solve_small(mat: &mut [f64], rhs: &mut [f64], tiny: f64) -> bool {
+/// Solves a small dense k x k system `mat` y = `rhs` (row-major) in place
+/// (Gaussian elimination, partial pivoting). Err(col) where the pivot of
+/// column `col` is below `tiny` times the largest diagonal: that column is
+/// (nearly) 0, or a combination of the columns before it.
+pub fn solve_small(mat: &mut [f64], rhs: &mut [f64], tiny: f64) -> Result<(), usize> {
     let k = rhs.len();
     let scale = (0..k).map(|i| mat[i * k + i].abs()).fold(0.0, f64::max);
     for col in 0..k {
@@ -212,7 +213,7 @@ pub fn solve_small(mat: &mut [f64], rhs: &mut [f64], tiny: f64) -> bool {
             .max_by(|&a, &b| mat[a * k + col].abs().total_cmp(&mat[b * k + col].abs()))
             .unwrap_or(col);
         if !(mat[p * k + col].abs() > tiny * scale) {
-            return false;
+            return Err(col);
         }
         if p != col {
             for j in 0..k {
@@ -235,5 +236,5 @@ pub fn solve_small(mat: &mut [f64], rhs: &mut [f64], tiny: f64) -> bool {
         }
         rhs[col] = sum / mat[col * k + col];
     }
-    true
+    Ok(())
 }

@@ -75,14 +75,27 @@ impl MotorWork {
     /// an error where a pivot is below `motor_pivot_rel` of the largest
     /// diagonal (a motor the structure cannot move, or two that move it alike).
     fn solve(&mut self, model: &Model) -> Result<(), SolverError> {
-        if solve_small(&mut self.mat, &mut self.rhs, model.solver.motor_pivot_rel) {
-            return Ok(());
-        }
-        Err(SolverError::Invalid(format!(
-            "the structure cannot move along the cable `{}` of a speed-controlled motor \
-             (it is locked up or at a singular configuration)",
-            model.cables[self.order[0]].name
-        )))
+        let col = match solve_small(&mut self.mat, &mut self.rhs, model.solver.motor_pivot_rel) {
+            Ok(()) => return Ok(()),
+            Err(col) => col,
+        };
+        let name = |oi: usize| model.cables[self.order[oi]].name.as_str();
+        Err(SolverError::Invalid(if col == 0 {
+            format!(
+                "the structure cannot move along the cable `{}` of a speed-controlled motor \
+                 (it is locked up or at a singular configuration)",
+                name(0)
+            )
+        } else {
+            let before: Vec<String> = (0..col).map(|oi| format!("`{}`", name(oi))).collect();
+            format!(
+                "the speed-controlled cable `{}` drives the same motion as {}: the \
+                 structure cannot follow two speeds along one motion (control one of \
+                 them by its speed, the other by its tension)",
+                name(col),
+                before.join(", ")
+            )
+        }))
     }
 
     /// The tracking cables, in order, into `order`.
