@@ -12,8 +12,8 @@
 //!                motor::motors_after_substep (release, engage)
 //! ```
 //!
-//! Compliant elements (`springs`) add their forces in the integrator and
-//! their energy in the ledger. With elastic members
+//! Compliant elements and engaged compliant latches (`crate::solver::springs`)
+//! add their forces in the integrator and their energy in the ledger. With elastic members
 //! (`SolverSettings::elastic_members`) the Newmark iteration holds
 //! Phi + tau Phidot + c lambda = 0 itself and nothing is projected.
 //!
@@ -385,59 +385,17 @@ impl Simulator {
             let h = h_try
                 .min(t_end - self.state.t_s)
                 .min(self.transient_step_s());
-            let (st, base) = (&self.settings, SolveMode::Basic);
-            match self.core.newmark(&self.model, &self.state, h, st, base) {
-                // (a projection that fails at the trial is retried shorter too:
-                // near a singular configuration the shorter step stays nearer
-                // the manifold; so is a trial whose iterates diverged to
-                // non-finite values from the finite accepted state)
-                Err(e) if shorter_may_converge(&e) && h > dt * st.min_substep_fraction => {
-                    self.core.stats.fallbacks.substep_halvings += 1;
-                    h_try = 0.5 * h;
+            let budget_used = match self.trial(h, dt)? {
+                Trial::Sound { budget_used } => budget_used,
+                Trial::Retry { h_s } => {
+                    h_try = h_s;
                     continue;
                 }
-                Err(e) => return Err(e),
-                Ok(()) => {}
-            }
-            // The trial stepped over the friction blend's fast transient
-            // (a damper whose time constant the step exceeds many times),
-            // which the average-acceleration rule leaves ringing. With
-            // elastic members: the same step again under the backward-Euler
-            // rule, which leaves it at rest (amplification 1 / (1 + 2x)
-            // against (1 - x) / (1 + x), x = h/2 times the damper's rate),
-            // the ledger booking that rule's own term (`integrator_work_j`).
-            // With rigid members, whose projections that term does not
-            // cover, the transient is resolved by halving h (docs/solver.md).
-            if self.core.blend_entry && !self.core.backward_euler {
-                if self.settings.elastic_members {
-                    self.core.stats.fallbacks.blend_entry_backward_euler += 1;
+                Trial::RepeatBackwardEuler => {
                     backward_euler_next = true;
                     h_try = h;
                     continue;
                 }
-                if h > dt * self.settings.min_substep_fraction {
-                    self.core.stats.fallbacks.blend_entry_halvings += 1;
-                    h_try = 0.5 * h;
-                    continue;
-                }
-            }
-            if let Some(h_cut) = self.contact_cut(h, dt) {
-                self.core.stats.contact_cuts += 1;
-                h_try = h_cut;
-                continue;
-            }
-            let budget_used = match self.trial_ledger(h, dt) {
-                TrialLedger::MadeEnergy => {
-                    self.core.stats.fallbacks.substep_energy_halvings += 1;
-                    h_try = 0.5 * h;
-                    continue;
-                }
-                TrialLedger::OverBudget => {
-                    self.core.stats.ledger_halvings += 1;
-                    h_try = 0.5 * h;
-                    continue;
-                }
-                TrialLedger::Sound { budget_used } => budget_used,
             };
             // (a failure that left the state as it was: in a latch search,
             // whose steps to the crossing did not converge; retried shorter
@@ -473,6 +431,60 @@ impl Simulator {
         self.state.steps += 1;
         self.core.stats.steps += 1;
         Ok(self.state.locks.len() - locks_before)
+    }
+
+    /// A trial sub-step of length h (stage `integrator`) and the gates on
+    /// it, each of which retries the sub-step (the one retry route: a
+    /// shorter h, or the same h once more under the backward-Euler rule).
+    fn trial(&mut self, h: f64, dt: f64) -> Result<Trial, SolverError> {
+        let (st, base) = (&self.settings, SolveMode::Basic);
+        let above_shortest = h > dt * st.min_substep_fraction;
+        match self.core.newmark(&self.model, &self.state, h, st, base) {
+            // (a projection that fails at the trial is retried shorter too:
+            // near a singular configuration the shorter step stays nearer
+            // the manifold; so is a trial whose iterates diverged to
+            // non-finite values from the finite accepted state)
+            Err(e) if shorter_may_converge(&e) && above_shortest => {
+                self.core.stats.fallbacks.substep_halvings += 1;
+                return Ok(Trial::Retry { h_s: 0.5 * h });
+            }
+            Err(e) => return Err(e),
+            Ok(()) => {}
+        }
+        // The trial stepped over the friction blend's fast transient
+        // (a damper whose time constant the step exceeds many times),
+        // which the average-acceleration rule leaves ringing. With
+        // elastic members: the same step again under the backward-Euler
+        // rule, which leaves it at rest (amplification 1 / (1 + 2x)
+        // against (1 - x) / (1 + x), x = h/2 times the damper's rate),
+        // the ledger booking that rule's own term (`integrator_work_j`).
+        // With rigid members, whose projections that term does not
+        // cover, the transient is resolved by halving h (docs/solver.md).
+        if self.core.blend_entry && !self.core.backward_euler {
+            if st.elastic_members {
+                self.core.stats.fallbacks.blend_entry_backward_euler += 1;
+                return Ok(Trial::RepeatBackwardEuler);
+            }
+            if above_shortest {
+                self.core.stats.fallbacks.blend_entry_halvings += 1;
+                return Ok(Trial::Retry { h_s: 0.5 * h });
+            }
+        }
+        if let Some(h_cut) = self.contact_cut(h, dt) {
+            self.core.stats.contact_cuts += 1;
+            return Ok(Trial::Retry { h_s: h_cut });
+        }
+        Ok(match self.trial_ledger(h, dt) {
+            TrialLedger::MadeEnergy => {
+                self.core.stats.fallbacks.substep_energy_halvings += 1;
+                Trial::Retry { h_s: 0.5 * h }
+            }
+            TrialLedger::OverBudget => {
+                self.core.stats.ledger_halvings += 1;
+                Trial::Retry { h_s: 0.5 * h }
+            }
+            TrialLedger::Sound { budget_used } => Trial::Sound { budget_used },
+        })
     }
 
     /// The computed trial of length h crosses a unilateral spring's contact
@@ -650,6 +662,16 @@ impl Simulator {
             }
         }
     }
+}
+
+/// What a trial sub-step calls for (`Simulator::trial`).
+enum Trial {
+    /// It passes the gates, having used this fraction of its miss budget.
+    Sound { budget_used: f64 },
+    /// A sub-step of this length instead.
+    Retry { h_s: f64 },
+    /// The same length again under the backward-Euler rule.
+    RepeatBackwardEuler,
 }
 
 /// The ledger's verdict on a trial sub-step (`Simulator::trial_ledger`).
