@@ -43,8 +43,8 @@ pub struct SolverSettings {
     /// ringing undamped under the trapezoidal rule.
     pub member_relaxation_s: f64,
     /// Elastic members: the compliance of the rows that are not members
-    /// (supports, pivots, hinges, latched sleeves without a compliant
-    /// latch), relative to the stiffest member's: rigid next to every
+    /// (supports, hinges, coplanarity, gears' rigid parts), relative to the
+    /// stiffest member's: rigid next to every
     /// member, yet S + D stays positive definite however redundant the rows.
     pub rigid_row_compliance_rel: f64,
     /// Fixed-point iterations of one Newmark step before it counts as not converged.
@@ -214,9 +214,12 @@ pub struct SolverSettings {
     pub latch_immobile_rel: f64,
 
     // --- speed-controlled motors (stage `motor`) ---
-    /// The motors' k x k system is singular (a motor the structure cannot
-    /// move, or two that move it alike) where a pivot falls below this
-    /// fraction of its largest diagonal: the motor goes to its tension limit.
+    /// The motors' k x k system is singular where a motor's mobility
+    /// grad L . d falls below this fraction of its free value grad L . W q
+    /// (the structure cannot move along its cable), or a pivot below this
+    /// fraction of the largest diagonal (two motors move it alike): the step fails with an error
+    /// naming the cables (a released motor engaging onto it stays at its
+    /// tension limit instead).
     pub motor_pivot_rel: f64,
 
     // --- mobility (the rank decision itself is `crate::solver::rank`) ---

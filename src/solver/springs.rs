@@ -113,8 +113,9 @@ impl ElementSprings {
         });
     }
 
-    /// Phi and A Xdot of every compliant element at (x, v); the previous
-    /// values move to `*_before`.
+    /// Phi and A Xdot at (x, v) of every compliant element, and of the
+    /// engaged latches where `latches`; the previous values move to
+    /// `*_before`.
     fn eval(&mut self, model: &Model, x: &[f64], v: &[f64], latches: bool) {
         let upto = if latches {
             self.work.len()
@@ -144,7 +145,7 @@ impl ElementSprings {
     /// step of `gains` (beta h^2, gamma h), (beta h^2 k + gamma h c) w, with w = sum A_j^2 / m_j the row's
     /// inverse mass over its free joints (a bound on the constrained one):
     /// at 1 and above the springs alone keep the plain iteration from
-    /// contracting. 0 without compliant elements.
+    /// contracting. 0 without compliant elements and engaged latches.
     pub fn max_gain(&mut self, model: &Model, x: &[f64], gains: StepGains) -> f64 {
         let mut gain = 0.0f64;
         for w in &mut self.work {
@@ -484,5 +485,85 @@ mod tests {
             springs.add_forces(&model, &x, &v, &mut q2);
             assert!(q2.iter().all(|f| *f == 0.0), "released");
         }
+    }
+
+    /// With compliant elements present (the bay-by-bay ring's gears): an
+    /// engaged latch adds exactly its own force to theirs, leaves the
+    /// elements' energy booking (`book_move`) as it was, and releasing it
+    /// leaves the elements' forces to the bit; releasing every latch
+    /// (a reset) keeps every element.
+    #[test]
+    fn latches_join_and_leave_the_compliant_elements() {
+        use crate::model::generate::ring::{ring, RingParams};
+        let params = RingParams {
+            latch: Some(LatchParams {
+                stiffness_n_per_m: 1e6,
+                damping_n_s_per_m: 1000.0,
+            }),
+            ..RingParams::bay_by_bay()
+        };
+        let text = ring(&params).unwrap().to_toml();
+        let model = crate::model::parse(&text, "ring.toml").unwrap().model;
+        let n = model.n_coords();
+        let mut springs = ElementSprings::new(&model);
+        assert!(springs.has_elements());
+        let elements = springs.work.len();
+        let latches: Vec<(usize, f64, f64)> = model
+            .elements
+            .iter()
+            .enumerate()
+            .filter_map(|(e, el)| el.latch_spring().map(|(k, c)| (e, k, c)))
+            .take(2)
+            .collect();
+        assert_eq!(latches.len(), 2);
+        // a deflected, moving state: every element's spring and damper act
+        let x: Vec<f64> = (0..n)
+            .map(|i| model.x0[i] + 1e-3 * ((i * 7 % 11) as f64 - 5.0))
+            .collect();
+        let v: Vec<f64> = (0..n).map(|i| 0.1 * ((i * 3 % 7) as f64 - 3.0)).collect();
+        let forces = |sp: &mut ElementSprings| {
+            let mut q = vec![0.0; n];
+            sp.add_forces(&model, &x, &v, &mut q);
+            q
+        };
+        let q_elements = forces(&mut springs);
+        let moved = springs.book_move(&model, (&model.x0, &v), (&x, &v));
+        for &(e, k, c) in &latches {
+            springs.engage_latch(&model, e, k, c);
+        }
+        assert_eq!(springs.work.len(), elements + 2);
+        let q_all = forces(&mut springs);
+        // each latch's own force, -T u on b and T u on a, T = k g + c gdot
+        let mut q_latches = vec![0.0; n];
+        for &(e, k, c) in &latches {
+            let el = &model.elements[e];
+            let (ja, jb) = (el.joints()[0], el.joints()[1]);
+            let (l, rate) = el.extension(&x, &v).unwrap();
+            let t = k * el.lock_gap(&x).unwrap() + c * rate;
+            for k3 in 0..3 {
+                let u = (x[3 * jb + k3] - x[3 * ja + k3]) / l;
+                q_latches[3 * ja + k3] += t * u;
+                q_latches[3 * jb + k3] -= t * u;
+            }
+        }
+        let scale = q_all.iter().fold(0.0f64, |m, f| m.max(f.abs()));
+        for i in 0..n {
+            let want = q_elements[i] + q_latches[i];
+            assert!(
+                (q_all[i] - want).abs() <= 1e-9 * scale,
+                "{i}: {} vs {want}",
+                q_all[i]
+            );
+        }
+        assert_eq!(springs.book_move(&model, (&model.x0, &v), (&x, &v)), moved);
+        springs.release_latches(Some(&[latches[0].0]));
+        assert_eq!(springs.work.len(), elements + 1);
+        springs.release_latches(Some(&[latches[1].0]));
+        assert_eq!(springs.work.len(), elements);
+        assert_eq!(forces(&mut springs), q_elements);
+        springs.engage_latch(&model, latches[0].0, latches[0].1, latches[0].2);
+        springs.release_latches(None);
+        assert_eq!(springs.work.len(), elements);
+        assert_eq!(forces(&mut springs), q_elements);
     }
 }

@@ -310,3 +310,29 @@ fn two_speed_controlled_cables_on_one_motion_are_refused_by_name() {
     assert_eq!(sim.state().motors[0].hold, MotorHold::Tracking);
     assert!(sim.state().reeled_in_m(sim.model(), 0) > 0.0);
 }
+
+/// A speed command on a deployed mast, which no cable can move (every
+/// sleeve latched: no mechanism), leaves its motor at the tension limit
+/// instead of engaging it; the mast then holds.
+#[test]
+fn a_speed_command_on_a_locked_structure_leaves_the_motor_at_its_limit() {
+    let mut sim = mast_sim(&MastParams::default());
+    for _ in 0..2000 {
+        if sim.state().deployed {
+            break;
+        }
+        sim.step(0.05).unwrap();
+    }
+    assert!(sim.state().deployed && sim.state().mechanisms == 0);
+    sim.set_cable_speed(0, Some(0.1)).unwrap();
+    assert_eq!(sim.state().motors[0].hold, MotorHold::AtLimit);
+    let max = sim.model().cables[0].max_tension_n;
+    let x = sim.state().x.clone();
+    sim.step(0.05).unwrap();
+    assert_eq!(sim.state().motor_tension_n(0), max);
+    let moved = x
+        .iter()
+        .zip(&sim.state().x)
+        .fold(0.0f64, |m, (a, b)| m.max((a - b).abs()));
+    assert!(moved < 1e-9, "moved {moved} m");
+}

@@ -8,7 +8,7 @@
 //! Phi) and 0 where it would pull, A = dPhi/dX = [-e, e] (e the unit
 //! vector a->b) while engaged and 0 while free, and the elastic energy
 //! 1/2 k Phi^2 (a compliant element, `Constraint::spring`; the springs of
-//! `solver::simulator::springs` carry it, implicit in the Newmark step).
+//! `solver::springs` carry it, implicit in the Newmark step).
 //! The contact's onset and release (the overrun's sign changes,
 //! `contact_distance_m`) are located: a trial sub-step across one is cut to
 //! end just past it (`[solver] contact_cut_rel`), so no trapezoid spans the

@@ -269,7 +269,11 @@ impl Core {
 
     /// The inverse masses the solves use: M^-1, or (M + h/2 C)^-1 inside an
     /// implicitly damped Newmark step.
-    fn weights<'a>(implicit_h: Option<f64>, eff: &'a [f64], model: &'a Model) -> &'a [f64] {
+    pub(super) fn weights<'a>(
+        implicit_h: Option<f64>,
+        eff: &'a [f64],
+        model: &'a Model,
+    ) -> &'a [f64] {
         if implicit_h.is_some() {
             eff
         } else {

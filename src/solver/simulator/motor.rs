@@ -7,6 +7,7 @@
 //!   system sum_k (grad L_i . A_1k) T_k = -Lddot_i(A_0);
 //! - positions and velocities: mass-orthogonal corrections along d_k, the
 //!   structure's response to grad L_k (A d_k = 0), onto L_i(t) and -s_i.
+//!
 //! The tension stays in [0, `max_tension_n`]: beyond it the motor releases
 //! (to its limit or slack), and at every rigid latch; a released motor
 //! engages again at its commanded speed by a velocity jump, whose change of
@@ -36,6 +37,11 @@ pub(super) struct MotorWork {
     a0: Vec<f64>,
     lambda0: Vec<f64>,
     q_save: Vec<f64>,
+    /// Per cable: its mobility were the structure free, grad L . W q for
+    /// the force q its column solves with (W the solve's inverse masses):
+    /// the scale of its diagonal; and a joint-sized scratch.
+    free: Vec<f64>,
+    scratch: Vec<f64>,
     c_save: Vec<f64>,
     /// The k x k system (row-major) and its right side / solution, in the
     /// order of the tracking cables.
@@ -56,6 +62,8 @@ impl MotorWork {
             a0: vec![0.0; n],
             lambda0: vec![0.0; rows],
             q_save: vec![0.0; n],
+            free: vec![0.0; nc],
+            scratch: vec![0.0; n],
             c_save: vec![0.0; rows],
             mat: Vec::with_capacity(nc * nc),
             rhs: Vec::with_capacity(nc),
@@ -72,19 +80,28 @@ impl MotorWork {
     }
 
     /// Solves the k x k system in `mat`, `rhs` (its solution into `rhs`);
-    /// an error where a pivot is below `motor_pivot_rel` of the largest
-    /// diagonal (a motor the structure cannot move, or two that move it alike).
+    /// an error naming the cable where a diagonal is below `motor_pivot_rel`
+    /// of its free value (the structure cannot move along it), or the
+    /// cables where a pivot is below that of the largest diagonal (two
+    /// motors move it alike).
     fn solve(&mut self, model: &Model) -> Result<(), SolverError> {
-        let col = match solve_small(&mut self.mat, &mut self.rhs, model.solver.motor_pivot_rel) {
-            Ok(()) => return Ok(()),
-            Err(col) => col,
-        };
+        // (a cable the structure cannot move along: its diagonal, grad L . d,
+        // the structure's mobility along it, vanishes against the free one)
+        let (k, tiny) = (self.rhs.len(), model.solver.motor_pivot_rel);
+        let diag = |i: usize| self.mat[i * k + i];
+        // (both negative for a tension, whose pull shortens the cable)
+        let immobile = (0..k).find(|&i| !(diag(i) / self.free[self.order[i]] > tiny));
+        let col =
+            match immobile.map_or_else(|| solve_small(&mut self.mat, &mut self.rhs, tiny), Err) {
+                Ok(()) => return Ok(()),
+                Err(col) => col,
+            };
         let name = |oi: usize| model.cables[self.order[oi]].name.as_str();
-        Err(SolverError::Invalid(if col == 0 {
+        Err(SolverError::Invalid(if immobile.is_some() {
             format!(
                 "the structure cannot move along the cable `{}` of a speed-controlled motor \
                  (it is locked up or at a singular configuration)",
-                name(0)
+                name(col)
             )
         } else {
             let before: Vec<String> = (0..col).map(|oi| format!("`{}`", name(oi))).collect();
@@ -184,6 +201,7 @@ impl Core {
         for oi in 0..self.motor.order.len() {
             let ci = self.motor.order[oi];
             self.q.copy_from_slice(&self.motor.g[ci]);
+            self.motor_free_mobility(model, ci);
             self.c[..m].fill(0.0);
             self.solve_accelerations(model)?;
             self.motor.resp[ci].copy_from_slice(&self.a);
@@ -238,6 +256,7 @@ impl Core {
             let ci = self.motor.order[oi];
             self.q.fill(0.0);
             model.cables[ci].add_length_gradient(&self.x, 1.0, &mut self.q);
+            self.motor_free_mobility(model, ci);
             self.c[..m].fill(0.0);
             self.solve_accelerations(model)?;
             self.motor.resp[ci].copy_from_slice(&self.a);
@@ -251,6 +270,17 @@ impl Core {
             }
         }
         Ok(())
+    }
+
+    /// Cable `ci`'s mobility were the structure free, grad L . W q, for the
+    /// force in `q` and the inverse masses W of the solves.
+    fn motor_free_mobility(&mut self, model: &Model, ci: usize) {
+        let w = Self::weights(self.implicit_h, &self.inv_mass_eff, model);
+        let mw = &mut self.motor;
+        for ((s, q), wi) in mw.scratch.iter_mut().zip(&self.q).zip(w) {
+            *s = q * wi;
+        }
+        mw.free[ci] = model.cables[ci].length_rate(&self.x, &mw.scratch);
     }
 
     /// Subtracts sum_k y_k d_k from `x` (positions) or `v` with y the
