@@ -12,7 +12,7 @@ use crate::solver::least_work::LeastWork;
 use crate::solver::linsolve::SolverKind;
 use crate::solver::linsolve::{ConstraintSolver, FactorReport, SolveMode, SolveReport};
 use crate::solver::model::Model;
-pub use crate::solver::springs::StepGains;
+use crate::solver::springs::StepGains;
 use crate::solver::state::State;
 use crate::solver::stats::SolverStats;
 use crate::solver::SolverError;

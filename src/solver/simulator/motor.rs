@@ -91,11 +91,13 @@ impl MotorWork {
         let diag = |i: usize| self.mat[i * k + i];
         // (both negative for a tension, whose pull shortens the cable)
         let immobile = (0..k).find(|&i| !(diag(i) / self.free[self.order[i]] > tiny));
-        let col =
-            match immobile.map_or_else(|| solve_small(&mut self.mat, &mut self.rhs, tiny), Err) {
+        let col = match immobile {
+            Some(i) => i,
+            None => match solve_small(&mut self.mat, &mut self.rhs, tiny) {
                 Ok(()) => return Ok(()),
                 Err(col) => col,
-            };
+            },
+        };
         let name = |oi: usize| model.cables[self.order[oi]].name.as_str();
         Err(SolverError::Invalid(if immobile.is_some() {
             format!(
