@@ -47,6 +47,10 @@ pub struct SolverStats {
     /// members also compliant latches the structure cannot move along,
     /// which latch at once as their row, L/EA + 1/k).
     pub latches: u64,
+    /// Elastic members: sub-steps taken under the backward-Euler rule
+    /// because they start from accelerations solved at acceleration level
+    /// (a start, a latch, a command change: `Core::restarted`).
+    pub restart_backward_euler: u64,
     /// Trial sub-steps cut at a unilateral spring's contact onset or
     /// release (`contact_cut_rel`: an end stop's kink located).
     pub contact_cuts: u64,
@@ -177,7 +181,7 @@ impl SolverStats {
             "{} steps, {} sub-steps, {} Newmark steps ({:.2} iterations each), \
              {} Newton steps ({} GMRES iterations, {} backtracks), \
              {} factorizations ({} reused, {} probes), {} solves ({:.2} iterations each; {} factored inside, {} with a kept one), \
-             {} latch searches ({} trial steps), {} latches, {} sub-steps cut at contacts, {} halved on their ledger's budget; fallbacks: {} halvings ({} at blend entries, {} for energy, {} accepted making energy, {} over their ledger's budget at the shortest), \
+             {} latch searches ({} trial steps), {} latches, {} restarts taken backward-Euler, {} sub-steps cut at contacts, {} halved on their ledger's budget; fallbacks: {} halvings ({} at blend entries, {} for energy, {} accepted making energy, {} over their ledger's budget at the shortest), \
              {} blend entries taken again backward-Euler, {} Newton switches ({} failed, {} retried with secant slopes), {} Newmark min-norm, {} lagged friction, {} projection min-norm, {} velocity min-norm, \
              {} refactored, {} re-probed, {} least-squares, {} unconverged solves, \
              {} dips rejected, {} root searches at their limit ({} search steps redone with basic solves), \
@@ -200,6 +204,7 @@ impl SolverStats {
             self.latch_searches,
             self.latch_search_steps,
             self.latches,
+            self.restart_backward_euler,
             self.contact_cuts,
             self.ledger_halvings,
             f.substep_halvings,

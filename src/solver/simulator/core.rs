@@ -46,6 +46,12 @@ pub(super) struct Core {
     /// Per cable, the pulley sliding speeds at the step start, and whether the
     /// current iteration takes the friction direction from them.
     pub friction_sliding: Vec<Vec<f64>>,
+    /// Per cable, the pulley sliding speeds a blend entry is judged from
+    /// (`friction_blend_entered`): the trial's start, held at the restart's
+    /// through the sub-step after a restart's backward-Euler one
+    /// (`blend_start_held`).
+    pub blend_start: Vec<Vec<f64>>,
+    pub blend_start_held: bool,
     pub lagged_friction: bool,
     /// The Newton steps take the friction's secant slopes back to the step
     /// start (`cable::add_friction_derivative`): their retry after a failed
@@ -56,6 +62,16 @@ pub(super) struct Core {
     /// where a trial stepped over the friction blend's fast transient
     /// (`blend_change_rel`).
     pub backward_euler: bool,
+    /// The state's accelerations were solved at acceleration level
+    /// (`consistent_accelerations`: a start, a latch, a command change)
+    /// since the last accepted sub-step. With elastic members the next
+    /// trial is then a backward-Euler step (`Simulator::step`): the
+    /// members' fast damper mode (rate ~ tau k / m) has the amplification
+    /// (1 - x) / (1 + x) -> -1 under the average acceleration, which would
+    /// keep the mismatch between that solution and the step's own (index 3)
+    /// ringing in A and lambda from step to step, undamped; backward Euler's
+    /// 1 / (1 + 2x) -> 0 removes it in one sub-step.
+    pub restarted: bool,
     /// Buffers of the Newton steps of the Newmark iteration.
     pub newton: NewtonWork,
     /// The last Newmark step needed Newton steps and a pulley's sliding
@@ -141,9 +157,16 @@ impl Core {
                 .iter()
                 .map(|c| vec![0.0; c.path.len().saturating_sub(2)])
                 .collect(),
+            blend_start: model
+                .cables
+                .iter()
+                .map(|c| vec![0.0; c.path.len().saturating_sub(2)])
+                .collect(),
+            blend_start_held: false,
             lagged_friction: false,
             newton_secant: false,
             backward_euler: false,
+            restarted: false,
             blend_entry: false,
             newton_last: false,
             newton: NewtonWork::new(model.solver.newmark_newton_krylov_max, n, m),

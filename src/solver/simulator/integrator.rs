@@ -132,6 +132,7 @@ impl Core {
     ) -> Result<(), SolverError> {
         if st.elastic_members {
             self.compliant = Some((model.dt_s, false));
+            self.restarted = true;
         }
         let result = self.consistent_fixed_point(model, cmd, st);
         self.compliant = None;
@@ -214,6 +215,11 @@ impl Core {
         }
         for (dst, src) in self.friction_sliding.iter_mut().zip(&s.cables) {
             dst.copy_from_slice(&src.sliding_m_s);
+        }
+        if !self.blend_start_held {
+            for (dst, src) in self.blend_start.iter_mut().zip(&s.cables) {
+                dst.copy_from_slice(&src.sliding_m_s);
+            }
         }
         if st.elastic_members {
             self.compliant = Some((h, true));

@@ -153,6 +153,7 @@ impl Simulator {
         let core = &mut self.core;
         core.prev_h = None;
         core.backward_euler = false;
+        core.blend_start_held = false;
         // (a reset in a compliant latch's transient: its spring goes with it)
         core.element_springs.release_latches(None);
         core.waiting.clear();
@@ -367,7 +368,10 @@ impl Simulator {
         // (the next trial repeats a blend entry's under the backward-Euler rule)
         let mut backward_euler_next = false;
         while t_end - self.state.t_s > end_tol_s {
-            self.core.backward_euler = std::mem::take(&mut backward_euler_next);
+            // (the trial after a restart too, with elastic members:
+            // `Core::restarted`)
+            self.core.backward_euler = std::mem::take(&mut backward_euler_next)
+                || (self.core.restarted && self.settings.elastic_members);
             if let Some(why) = self.limits.reached() {
                 return Err(SolverError::Stopped {
                     t_s: self.state.t_s,
@@ -384,7 +388,8 @@ impl Simulator {
             }
             let h = h_try
                 .min(t_end - self.state.t_s)
-                .min(self.transient_step_s());
+                .min(self.transient_step_s())
+                .min(self.restart_step_s(dt));
             let budget_used = match self.trial(h, dt)? {
                 Trial::Sound { budget_used } => budget_used,
                 Trial::Retry { h_s } => {
@@ -431,6 +436,16 @@ impl Simulator {
         self.state.steps += 1;
         self.core.stats.steps += 1;
         Ok(self.state.locks.len() - locks_before)
+    }
+
+    /// Longest sub-step after a restart (`Core::restarted`, elastic
+    /// members: a backward-Euler one): `restart_substep_fraction` of the step.
+    fn restart_step_s(&self, dt: f64) -> f64 {
+        if self.core.restarted && self.settings.elastic_members {
+            self.settings.restart_substep_fraction * dt
+        } else {
+            f64::INFINITY
+        }
     }
 
     /// A trial sub-step of length h (stage `integrator`) and the gates on

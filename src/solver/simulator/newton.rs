@@ -208,21 +208,24 @@ impl Core {
     /// the step start (the iterates of a step across the blend can alternate
     /// between its two saturated sides).
     pub(super) fn friction_blend_active(&self, model: &Model) -> bool {
-        self.pulleys_in_blend(model).next().is_some()
+        self.pulleys_in_blend(model, &self.friction_sliding)
+            .next()
+            .is_some()
     }
 
     /// The pulleys (with friction) whose blend is in play in this step, as
-    /// (sliding now, sliding at the step start, slip speed): inside the blend
-    /// at either end, or sliding the other way than at the start.
+    /// (sliding now, sliding at the start `start`, slip speed): inside the
+    /// blend at either end, or sliding the other way than at the start.
     fn pulleys_in_blend<'a>(
         &'a self,
         model: &'a Model,
+        start: &'a [Vec<f64>],
     ) -> impl Iterator<Item = (f64, f64, f64)> + 'a {
         model
             .cables
             .iter()
             .zip(&self.cables)
-            .zip(&self.friction_sliding)
+            .zip(start)
             .filter(|((c, _), _)| c.friction_mu > 0.0)
             .flat_map(|((c, e), start)| {
                 let slip = c.slip_speed_m_s;
@@ -239,9 +242,12 @@ impl Core {
     /// or on the other side at its end, changed its sliding by more than
     /// `change_rel` times its slip speed. (Inside the blend the friction is a
     /// damper whose time constant the step exceeds many times; a change of
-    /// the sliding there is that transient, stepped over.)
+    /// the sliding there is that transient, stepped over.) The change is
+    /// counted from `blend_start`: the step's start, or after a restart's
+    /// short backward-Euler sub-step the restart's (`Core::restarted`), whose
+    /// transient that sub-step only began to damp.
     pub(super) fn friction_blend_entered(&self, model: &Model, change_rel: f64) -> bool {
-        self.pulleys_in_blend(model)
+        self.pulleys_in_blend(model, &self.blend_start)
             .any(|(s, s0, slip)| (s - s0).abs() > change_rel * slip)
     }
 
