@@ -9,7 +9,15 @@ use truss_deploy::solver::state::MotorHold;
 use truss_deploy::solver::{Options, Simulator};
 
 fn mast_sim(p: &MastParams) -> Simulator {
+    mast_sim_members(p, false)
+}
+
+/// The generated mast with rigid or elastic members (`[solver]
+/// elastic_members`: the index-3 step, where the motor holds its length
+/// inside the Newmark iteration instead of by projection).
+fn mast_sim_members(p: &MastParams, elastic: bool) -> Simulator {
     let text = generate::mast(p).expect("valid params").to_toml();
+    let text = format!("{text}\n[solver]\nelastic_members = {elastic}\n");
     let m = parse(&text, "mast.toml").expect("model loads").model;
     Simulator::new(m, Options::default()).expect("simulator")
 }
@@ -50,12 +58,15 @@ fn closed_form_tension(p: &MastParams, speed: f64, t: f64) -> (f64, f64) {
     (power / speed, phi)
 }
 
-/// A frictionless one-unit mast reeled in at 0.02 m/s: the cable length
-/// follows L(0) - s t to 1e-9 m at every step, and the motor's tension
-/// matches the closed form of its kinematics to 1e-6 (relative), until the
-/// mast latches; the latch releases the motor to its tension limit.
-#[test]
-fn a_frictionless_one_unit_mast_follows_the_speed_and_its_tension_the_closed_form() {
+/// What a frictionless one-unit mast reeled in at 0.02 m/s does, against
+/// its kinematics: steps checked while tracking, the largest
+/// |L - (L(0) - s t)| (m), the largest relative errors against the closed
+/// form of the motor's tension at the steps' ends and of its mean over each
+/// step after the first (the motor's work over it by the cable reeled in,
+/// against the closed form at the step's middle), the deploy time and the kinematics'
+/// L(phi0) - L(phi_d) over s. Every step before the latch tracks; the latch
+/// releases the motor to its tension limit.
+fn one_unit_mast_at_speed(elastic: bool) -> (usize, f64, [f64; 2], f64, f64) {
     let p = MastParams {
         units: 1,
         friction_mu: 0.0,
@@ -68,105 +79,154 @@ fn a_frictionless_one_unit_mast_follows_the_speed_and_its_tension_the_closed_for
         ..MastParams::default()
     };
     let speed = 0.02;
-    let mut sim = mast_sim(&p);
+    let mut sim = mast_sim_members(&p, elastic);
     sim.set_cable_speed(0, Some(speed)).expect("speed command");
     let l0 = sim.model().cables[0].length_m(&sim.model().x0);
-    let (mut worst_len, mut worst_t, mut checked) = (0.0f64, 0.0f64, 0);
+    let (mut worst_len, mut worst_t, mut checked) = (0.0f64, [0.0f64; 2], 0);
+    let dt = 0.05;
     while !sim.state().deployed {
         assert!(sim.state().t_s < 200.0, "not deployed by 200 s");
-        sim.step(0.05).expect("step");
+        let (work0, reeled0) = (
+            sim.state().energy.motor_work_j,
+            sim.state().reeled_in_m(sim.model(), 0),
+        );
+        sim.step(dt).expect("step");
         let s = sim.state();
         if s.deployed {
             break;
         }
+        let mean_n = (s.energy.motor_work_j - work0) / (s.reeled_in_m(sim.model(), 0) - reeled0);
+        let (t_mid, _) = closed_form_tension(&p, speed, s.t_s - 0.5 * dt);
+        // (after the first step, which holds the engagement's transient)
+        if checked > 0 {
+            worst_t[1] = worst_t[1].max((mean_n - t_mid).abs() / t_mid);
+        }
         assert_eq!(s.motors[0].hold, MotorHold::Tracking, "at t = {}", s.t_s);
         let len = sim.model().cables[0].length_m(&s.x);
         worst_len = worst_len.max((len - (l0 - speed * s.t_s)).abs());
-        assert!(
-            (s.reeled_in_m(sim.model(), 0) - speed * s.t_s).abs() < 1e-9,
-            "reeled in {} m at t = {} s",
-            s.reeled_in_m(sim.model(), 0),
-            s.t_s
-        );
         let (t_exact, _) = closed_form_tension(&p, speed, s.t_s);
         let rel = (s.motor_tension_n(0) - t_exact).abs() / t_exact.abs();
-        worst_t = worst_t.max(rel);
+        worst_t[0] = worst_t[0].max(rel);
         checked += 1;
     }
-    eprintln!(
-        "one-unit mast at {speed} m/s: {checked} steps, |L - (L0 - s t)| <= {worst_len:.2e} m, \
-         tension rel. error <= {worst_t:.2e}, deployed at {:?} s",
-        sim.state().deploy_time_s
-    );
-    assert!(checked > 100, "{checked} steps checked");
-    assert!(worst_len < 1e-9, "{worst_len}");
-    assert!(worst_t < 1e-6, "{worst_t}");
     // deployed when the cable has been reeled in by L(phi0) - L(phi_d)
     let l_d = generate::mast_cable_length(1, p.rod_length_m, p.deploy_deg.to_radians());
     let t_d = (l0 - l_d) / speed;
     let t = sim.state().deploy_time_s.unwrap();
+    eprintln!(
+        "one-unit mast at {speed} m/s, elastic members {elastic}: {checked} steps, \
+         |L - (L0 - s t)| <= {worst_len:.2e} m, tension rel. error <= {:.2e} at the steps' ends, \
+         {:.2e} over each step, \
+         deployed at {t} s (kinematics {t_d} s), {} sub-steps",
+        worst_t[0],
+        worst_t[1],
+        sim.solver_stats().substeps
+    );
+    assert_eq!(sim.state().motors[0].hold, MotorHold::AtLimit);
+    assert!(sim.solver_stats().motor_releases >= 1);
+    (checked, worst_len, worst_t, t, t_d)
+}
+
+/// Rigid members: the cable length follows L(0) - s t to 1e-9 m at every
+/// step, the motor's tension the closed form of the kinematics to 1e-6
+/// (relative) and its mean over a step the closed form at the step's
+/// middle to 1e-4 (the trapezoid's own difference, h^2 T''/8), the deploy
+/// time the kinematics' to 1e-6 s.
+#[test]
+fn a_frictionless_one_unit_mast_follows_the_speed_and_its_tension_the_closed_form() {
+    let (checked, worst_len, worst_t, t, t_d) = one_unit_mast_at_speed(false);
+    assert!(checked > 100, "{checked} steps checked");
+    assert!(worst_len < 1e-9, "{worst_len}");
+    assert!(worst_t[0] < 1e-6 && worst_t[1] < 1e-4, "{worst_t:?}");
     assert!(
         (t - t_d).abs() < 1e-6,
         "deployed at {t} s, the kinematics say {t_d} s"
     );
-    assert_eq!(sim.state().motors[0].hold, MotorHold::AtLimit);
-    assert!(sim.solver_stats().motor_releases >= 1);
+}
+
+/// Elastic members (the motor's length held at the step's end with the
+/// members' relaxation, `motor_tensions`): the same oracles, the length to
+/// 1e-8 m, the tension's mean over each step to 1e-4, the deploy time to
+/// 1e-6 s. At the steps' ends the tension rings about the closed form by
+/// up to 4.5 %: the engagement's velocity jump excites a member-stretch
+/// mode (rate ~3e4 /s) that the trapezoid does not damp and the short
+/// backward-Euler sub-step after it (`restart_substep_fraction` 0.01)
+/// leaves 1/16 of; bounded here by 0.1 (without that sub-step: 0.5).
+#[test]
+fn with_elastic_members_the_one_unit_mast_follows_the_speed_and_the_closed_form() {
+    let (checked, worst_len, worst_t, t, t_d) = one_unit_mast_at_speed(true);
+    assert!(checked > 100, "{checked} steps checked");
+    assert!(worst_len < 1e-8, "{worst_len}");
+    assert!(worst_t[1] < 1e-4 && worst_t[0] < 0.1, "{worst_t:?}");
+    assert!(
+        (t - t_d).abs() < 1e-6,
+        "deployed at {t} s, the kinematics say {t_d} s"
+    );
 }
 
 /// The four-unit mast with pulley friction and damping at a commanded
 /// speed: the motor's work (its tension by the trapezoid over the cable
 /// reeled in) equals the kinetic energy plus every loss, to 1e-6 of the
-/// energy that flowed, over the whole deployment and its latch.
+/// energy that flowed, over the whole deployment and its latch, with rigid
+/// and with elastic members (their strain energy and dampers' loss among
+/// the losses); the cable length follows L(0) - s t to 1e-9 m (rigid: by
+/// projection) and 1e-8 m (elastic: held inside the step).
 #[test]
 fn a_speed_controlled_mast_with_friction_balances_its_motor_work() {
-    let p = MastParams {
-        friction_mu: 0.1,
-        damping_n_s_per_m: 0.5,
-        start_deg: 30.0,
-        ..MastParams::default()
-    };
-    let speed = 0.01;
-    let mut sim = mast_sim(&p);
-    sim.set_cable_speed(0, Some(speed)).expect("speed command");
-    let l0 = sim.model().cables[0].length_m(&sim.model().x0);
-    let mut worst_len = 0.0f64;
-    while !sim.state().deployed {
-        assert!(sim.state().t_s < 300.0, "not deployed by 300 s");
-        sim.step(0.05).expect("step");
-        let s = sim.state();
-        if !s.deployed {
-            let len = sim.model().cables[0].length_m(&s.x);
-            worst_len = worst_len.max((len - (l0 - speed * s.t_s)).abs());
+    for (elastic, len_tol) in [(false, 1e-9), (true, 1e-8)] {
+        let p = MastParams {
+            friction_mu: 0.1,
+            damping_n_s_per_m: 0.5,
+            start_deg: 30.0,
+            ..MastParams::default()
+        };
+        let speed = 0.01;
+        let mut sim = mast_sim_members(&p, elastic);
+        sim.set_cable_speed(0, Some(speed)).expect("speed command");
+        let l0 = sim.model().cables[0].length_m(&sim.model().x0);
+        let mut worst_len = 0.0f64;
+        while !sim.state().deployed {
+            assert!(sim.state().t_s < 300.0, "not deployed by 300 s");
+            sim.step(0.05).expect("step");
+            let s = sim.state();
+            if !s.deployed {
+                let len = sim.model().cables[0].length_m(&s.x);
+                worst_len = worst_len.max((len - (l0 - speed * s.t_s)).abs());
+            }
         }
+        for _ in 0..20 {
+            sim.step(0.05).expect("step after the latch");
+        }
+        let s = sim.state();
+        let e = &s.energy;
+        let kinetic = s.kinetic_energy_j(sim.model());
+        let spent = kinetic
+            + e.friction_loss_j
+            + e.damping_loss_j
+            + e.lock_loss_j
+            + e.latch_damping_loss_j
+            + e.latch_spring_energy_j
+            + e.element_spring_energy_j
+            + e.member_strain_energy_j
+            + e.member_damping_loss_j
+            - e.gravity_work_j
+            - e.integrator_work_j;
+        let rel = (e.motor_work_j - spent).abs() / e.motor_work_j.abs();
+        eprintln!(
+            "four-unit mast at {speed} m/s, mu 0.1, elastic members {elastic}: deployed at {:?} s, \
+             motor work {:.6e} J, kinetic + losses {spent:.6e} J, rel {rel:.2e}, friction {:.3e} J, \
+             |L - (L0 - s t)| <= {worst_len:.2e} m",
+            s.deploy_time_s, e.motor_work_j, e.friction_loss_j
+        );
+        assert!(
+            e.friction_loss_j > 1e-3 * e.motor_work_j,
+            "friction took {}",
+            e.friction_loss_j
+        );
+        assert!(rel < 1e-6, "motor work vs kinetic + losses: {rel:e}");
+        assert!(s.energy.balance_rel_error(kinetic) < 1e-6);
+        assert!(worst_len < len_tol, "{worst_len}");
     }
-    for _ in 0..20 {
-        sim.step(0.05).expect("step after the latch");
-    }
-    let s = sim.state();
-    let e = &s.energy;
-    let kinetic = s.kinetic_energy_j(sim.model());
-    let spent = kinetic
-        + e.friction_loss_j
-        + e.damping_loss_j
-        + e.lock_loss_j
-        + e.latch_damping_loss_j
-        + e.latch_spring_energy_j
-        + e.element_spring_energy_j
-        - e.gravity_work_j;
-    let rel = (e.motor_work_j - spent).abs() / e.motor_work_j.abs();
-    eprintln!(
-        "four-unit mast at {speed} m/s, mu 0.1: deployed at {:?} s, motor work {:.6e} J, \
-         kinetic + losses {spent:.6e} J, rel {rel:.2e}, friction {:.3e} J, |L - (L0 - s t)| <= {worst_len:.2e} m",
-        s.deploy_time_s, e.motor_work_j, e.friction_loss_j
-    );
-    assert!(
-        e.friction_loss_j > 1e-3 * e.motor_work_j,
-        "friction took {}",
-        e.friction_loss_j
-    );
-    assert!(rel < 1e-6, "motor work vs kinetic + losses: {rel:e}");
-    assert!(s.energy.balance_rel_error(kinetic) < 1e-6);
-    assert!(worst_len < 1e-9, "{worst_len}");
 }
 
 /// A speed the drive cannot hold against the damping: the motor releases to

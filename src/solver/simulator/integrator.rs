@@ -221,6 +221,11 @@ impl Core {
                 dst.copy_from_slice(&src.sliding_m_s);
             }
         }
+        let motors = self.motor.any_tracking();
+        if motors {
+            // (the lengths they hold at the trial's end)
+            self.motor.set_targets(s, h);
+        }
         if st.elastic_members {
             self.compliant = Some((h, true));
         }
@@ -236,9 +241,7 @@ impl Core {
             return Ok(());
         }
         self.project_positions(model, st, base)?;
-        let motors = self.motor.any_tracking();
         if motors {
-            self.motor.set_targets(s, h);
             self.project_motor_positions(model, st, base)?;
         }
         self.factor(model, base)?;
@@ -259,15 +262,16 @@ impl Core {
     }
 
     /// The end of an elastic-member step: the iteration left X_{n+1},
-    /// V_{n+1} with Phi + tau A V + c lambda = 0 and A_{n+1}, lambda
-    /// consistent with them; nothing is projected. The violation reported
-    /// is what is left of that equation; the members' strain energy and
-    /// dampers' rate are read for the ledger.
+    /// V_{n+1} with Phi + tau A V + c lambda = 0 (and the tracking motors'
+    /// L(X_{n+1}) on their targets) and A_{n+1}, lambda consistent with
+    /// them; nothing is projected. The violation reported is what is left
+    /// of those equations; the members' strain energy and dampers' rate are
+    /// read for the ledger.
     fn elastic_finish(&mut self, model: &Model) {
         self.jac.fill(model, &self.x);
         let (strain, worst) = self.elastic_readings(model);
         self.strain_trial_j = strain;
-        self.violation_m = worst;
+        self.violation_m = worst.max(self.motor.length_miss_m(model, &self.x));
         self.jac.mul_t(&self.lambda, &mut self.member_force_trial);
     }
 

@@ -7,6 +7,10 @@
 //!   system sum_k (grad L_i . A_1k) T_k = -Lddot_i(A_0);
 //! - positions and velocities: mass-orthogonal corrections along d_k, the
 //!   structure's response to grad L_k (A d_k = 0), onto L_i(t) and -s_i.
+//! - elastic members (nothing projected): inside the Newmark iteration the
+//!   system holds L_i(X_{n+1}) = L_i(t_{n+1}) instead, linearized at the
+//!   iterate as the members' rows are; an engagement's velocity jump takes
+//!   the members at their step compliance, as a latch's (`impact`).
 //!
 //! The tension stays in [0, `max_tension_n`]: beyond it the motor releases
 //! (to its limit or slack), and at every rigid latch; a released motor
@@ -129,7 +133,7 @@ impl MotorWork {
     }
 
     /// The largest |L_i(x) - target_i| over the tracking motors (m).
-    fn length_miss_m(&self, model: &Model, x: &[f64]) -> f64 {
+    pub fn length_miss_m(&self, model: &Model, x: &[f64]) -> f64 {
         (0..model.cables.len())
             .filter(|&ci| self.speed_m_s[ci].is_some())
             .map(|ci| (model.cables[ci].length_m(x) - self.target_m[ci]).abs())
@@ -190,7 +194,8 @@ impl Core {
     /// The tracking motors' tensions, with the accelerations `a_0` and
     /// multipliers of the other forces already solved in `a`, `lambda`: one
     /// more solve per motor (its unit forces), then the k x k system for
-    /// Lddot = 0 (module doc). `a`, `lambda`, `q` and the cable readings end
+    /// Lddot = 0, or inside elastic members' Newmark iteration for
+    /// L(X_{n+1}) = L_target (module doc). `a`, `lambda`, `q` and the cable readings end
     /// with the motors' tensions in them.
     pub fn motor_tensions(&mut self, model: &Model) -> Result<(), SolverError> {
         let mw = &mut self.motor;
@@ -209,6 +214,14 @@ impl Core {
             self.motor.resp[ci].copy_from_slice(&self.a);
             self.motor.resp_lambda[ci][..m].copy_from_slice(&self.lambda[..m]);
         }
+        // (elastic members' Newmark iteration, where nothing is projected:
+        // the motor holds its length at the step's end with the members'
+        // relaxation, as their rows do; X and tau V move by
+        // b = beta h^2 + tau gamma h per unit of A)
+        let index3 = match self.compliant {
+            Some((h, true)) => Some((self.step_relaxation_beta(h), self.relaxation_s)),
+            _ => None,
+        };
         let mw = &mut self.motor;
         self.q.copy_from_slice(&mw.q_save);
         self.c[..m].copy_from_slice(&mw.c_save[..m]);
@@ -220,7 +233,22 @@ impl Core {
             for &ck in &mw.order {
                 mw.mat.push(c.length_rate(&self.x, &mw.resp[ck]));
             }
-            mw.rhs.push(-c.length_accel(&self.x, &self.v, &mw.a0));
+            mw.rhs.push(match index3 {
+                // e + tau edot = 0 for the miss e = L(X) - L_target,
+                // edot = Ldot + s, linearized at the iterate A_g's (X, V):
+                // b grad L . (A - A_g) + e + tau edot = 0, so
+                // sum_k (grad L . A_1k) T_k = -(e + tau edot) / b - grad L . (A_0 - A_g)
+                // (a motor on its length stays there: e = 0 solves
+                // edot = -e / tau)
+                Some((b, tau)) => {
+                    let e = c.length_m(&self.x) - mw.target_m[ci];
+                    let edot = c.length_rate(&self.x, &self.v) + mw.speed_m_s[ci].unwrap_or(0.0);
+                    -(e + tau * edot) / b - c.length_rate(&self.x, &mw.a0)
+                        + c.length_rate(&self.x, &self.a_guess)
+                }
+                // Lddot = grad L . A + Xdot^T H_L Xdot = 0
+                None => -c.length_accel(&self.x, &self.v, &mw.a0),
+            });
         }
         mw.solve(model)?;
         self.a.copy_from_slice(&mw.a0);
@@ -368,12 +396,6 @@ impl Simulator {
                     c.name
                 )));
             }
-            if self.settings.elastic_members {
-                return Err(SolverError::Invalid(format!(
-                    "cable `{}`: speed control takes rigid members ([solver] elastic_members = false)",
-                    c.name
-                )));
-            }
         }
         let m = &mut self.state.motors[cable];
         if m.speed_cmd_m_s == speed_m_s {
@@ -411,12 +433,21 @@ impl Simulator {
         let speed = s.motors[ci].speed_cmd_m_s.expect("a speed command");
         core.x.copy_from_slice(&s.x);
         core.v.copy_from_slice(&s.v);
-        core.factor(model, crate::solver::linsolve::SolveMode::Basic)?;
+        if self.settings.elastic_members {
+            // (the members at their compliance over a step, c / beta(dt),
+            // whose solves factor S + D themselves: well posed at the flat
+            // state, as the latches' elastic velocity jump)
+            core.jac.fill(model, &core.x);
+            core.compliant = Some((model.dt_s, true));
+        } else {
+            core.factor(model, crate::solver::linsolve::SolveMode::Basic)?;
+        }
         // (this motor alone: the others keep their velocities' rates)
         for (j, w) in core.motor.speed_m_s.iter_mut().enumerate() {
             *w = (j == ci).then_some(speed);
         }
         let moved = core.project_motor_velocities(model);
+        core.compliant = None;
         match moved {
             Ok(()) => {
                 let jump_j = kinetic_energy_j(model, &core.v) - kinetic_energy_j(model, &s.v);
