@@ -228,9 +228,10 @@ pub struct SolverSettings {
     /// The motors' k x k system is singular where a motor's mobility
     /// grad L . d falls below this fraction of its free value grad L . W q
     /// (the structure cannot move along its cable), or a pivot below this
-    /// fraction of the largest diagonal (two motors move it alike): the step fails with an error
-    /// naming the cables (a released motor engaging onto it stays at its
-    /// tension limit instead).
+    /// fraction of the largest diagonal (two motors move it alike): a
+    /// speed command that makes it so is refused with an error naming the
+    /// cables, a released motor whose engagement would stays released, and
+    /// within a step the error names them.
     pub motor_pivot_rel: f64,
 
     // --- mobility (the rank decision itself is `crate::solver::rank`) ---

@@ -313,6 +313,17 @@ impl Core {
         mw.free[ci] = model.cables[ci].length_rate(&self.x, &mw.scratch);
     }
 
+    /// Whether the tracking motors' system (`speed_m_s`) is solvable at the
+    /// current factorization: an error naming the cables where it is not
+    /// (`MotorWork::solve`).
+    fn motors_solvable(&mut self, model: &Model) -> Result<(), SolverError> {
+        self.motor_directions(model)?;
+        let mw = &mut self.motor;
+        mw.rhs.clear();
+        mw.rhs.resize(mw.order.len(), 0.0);
+        mw.solve(model)
+    }
+
     /// Subtracts sum_k y_k d_k from `x` (positions) or `v` with y the
     /// solution of the k x k system for the residuals in `rhs`.
     fn motor_correct(&mut self, model: &Model, positions: bool) -> Result<(), SolverError> {
@@ -408,13 +419,22 @@ impl Simulator {
                 self.state.cable_tension_cmd_n[cable] = m.tension_cmd_n;
             }
             Some(s) => {
+                let before = (m.clone(), self.state.cable_tension_cmd_n[cable]);
                 if m.speed_cmd_m_s.is_none() {
                     m.tension_cmd_n = self.state.cable_tension_cmd_n[cable];
                 }
                 m.speed_cmd_m_s = Some(s);
                 // (a new speed, or one from tension control: the velocities
-                // jump to it)
-                self.motor_engage(cable)?;
+                // jump to it; a speed the tracking motors' system cannot
+                // take is refused, the motor left as it was)
+                if let Engage::Conflict(e) = self.motor_engage(cable)? {
+                    (
+                        self.state.motors[cable],
+                        self.state.cable_tension_cmd_n[cable],
+                    ) = before;
+                    self.core.motor.take_modes(&self.state);
+                    return Err(e);
+                }
             }
         }
         self.core.motor.take_modes(&self.state);
@@ -426,8 +446,9 @@ impl Simulator {
     /// Ldot = -s (the drive's impulsive tension; the jump's change of kinetic
     /// energy booked as its work), the length it holds from here on is the
     /// state's. A structure that cannot move along the cable leaves it at
-    /// its tension limit.
-    fn motor_engage(&mut self, ci: usize) -> Result<(), SolverError> {
+    /// its tension limit. Where the tracking motors with it would drive one
+    /// motion (their system singular), nothing changes: `Engage::Conflict`.
+    fn motor_engage(&mut self, ci: usize) -> Result<Engage, SolverError> {
         let (model, core) = (&self.model, &mut self.core);
         let s = &mut self.state;
         let speed = s.motors[ci].speed_cmd_m_s.expect("a speed command");
@@ -447,8 +468,34 @@ impl Simulator {
             *w = (j == ci).then_some(speed);
         }
         let moved = core.project_motor_velocities(model);
+        // (with the motors tracking already: one system for all of them)
+        let others =
+            (0..s.motors.len()).any(|j| j != ci && s.motors[j].hold == MotorHold::Tracking);
+        let solvable = match moved {
+            Ok(()) if others => {
+                for (j, w) in core.motor.speed_m_s.iter_mut().enumerate() {
+                    let tracking = j == ci || s.motors[j].hold == MotorHold::Tracking;
+                    *w = if tracking {
+                        s.motors[j].speed_cmd_m_s
+                    } else {
+                        None
+                    };
+                }
+                core.motors_solvable(model)
+            }
+            _ => Ok(()),
+        };
         core.compliant = None;
-        match moved {
+        match solvable {
+            Ok(()) => {}
+            Err(e @ SolverError::Invalid(_)) => {
+                // (the jump is not taken: the state is as it was)
+                core.motor.take_modes(s);
+                return Ok(Engage::Conflict(e));
+            }
+            Err(e) => return Err(e),
+        }
+        let engaged = match moved {
             Ok(()) => {
                 let jump_j = kinetic_energy_j(model, &core.v) - kinetic_energy_j(model, &s.v);
                 s.energy.motor_work_j += jump_j;
@@ -457,16 +504,18 @@ impl Simulator {
                 s.motors[ci].hold = MotorHold::Tracking;
                 s.motors[ci].length_ref_m = model.cables[ci].length_m(&s.x);
                 core.stats.motor_engagements += 1;
+                Engage::Tracking
             }
             Err(SolverError::Invalid(_)) => {
                 s.motors[ci].hold = MotorHold::AtLimit;
                 s.cable_tension_cmd_n[ci] = model.cables[ci].max_tension_n;
+                Engage::AtLimit
             }
             Err(e) => return Err(e),
-        }
+        };
         core.motor.take_modes(s);
         core.prev_h = None;
-        Ok(())
+        Ok(engaged)
     }
 
     /// Releases every tracking motor to its tension limit (before a rigid
@@ -515,13 +564,13 @@ impl Simulator {
                     self.core.motor.take_modes(&self.state);
                     changed = true;
                 }
+                // (a motor whose speed the tracking ones' system cannot take
+                // stays as it is: `Engage::Conflict`)
                 MotorHold::AtLimit if reel_in >= speed => {
-                    self.motor_engage(ci)?;
-                    changed = true;
+                    changed |= !matches!(self.motor_engage(ci)?, Engage::Conflict(_));
                 }
                 MotorHold::Slack if reel_in <= speed => {
-                    self.motor_engage(ci)?;
-                    changed = true;
+                    changed |= !matches!(self.motor_engage(ci)?, Engage::Conflict(_));
                 }
                 _ => {}
             }
@@ -532,4 +581,16 @@ impl Simulator {
         }
         Ok(changed)
     }
+}
+
+/// What engaging a motor did (`Simulator::motor_engage`).
+enum Engage {
+    /// It tracks its speed.
+    Tracking,
+    /// The structure cannot move along its cable: it pulls at its limit.
+    AtLimit,
+    /// With the motors tracking already its speed would ask one motion for
+    /// two (their system singular, the error naming the cables): nothing
+    /// changed.
+    Conflict(SolverError),
 }
