@@ -181,13 +181,7 @@ fn the_elastic_mast_deploys_as_the_rigid_one() {
 /// costs the backward-Euler rule's first-order error (docs/solver.md).
 #[test]
 fn elastic_members_accelerations_and_forces_do_not_ring() {
-    let p = MastParams {
-        units: 1,
-        friction_mu: 0.0,
-        damping_n_s_per_m: 0.3,
-        start_deg: 30.0,
-        ..MastParams::default()
-    };
+    let p = crate::speed_motor::one_unit_mast();
     let text = generate::mast(&p).unwrap().to_toml();
     let mut sims: Vec<Simulator> = [false, true]
         .iter()

@@ -8,6 +8,18 @@ use truss_deploy::model::parse;
 use truss_deploy::solver::state::MotorHold;
 use truss_deploy::solver::{Options, Simulator};
 
+/// A frictionless one-unit mast from 30 degrees, joint damping 0.3 N s/m:
+/// one mechanism, whose motion has closed forms.
+pub fn one_unit_mast() -> MastParams {
+    MastParams {
+        units: 1,
+        friction_mu: 0.0,
+        damping_n_s_per_m: 0.3,
+        start_deg: 30.0,
+        ..MastParams::default()
+    }
+}
+
 fn mast_sim(p: &MastParams) -> Simulator {
     mast_sim_members(p, false)
 }
@@ -67,17 +79,11 @@ fn closed_form_tension(p: &MastParams, speed: f64, t: f64) -> (f64, f64) {
 /// L(phi0) - L(phi_d) over s. Every step before the latch tracks; the latch
 /// releases the motor to its tension limit.
 fn one_unit_mast_at_speed(elastic: bool) -> (usize, f64, [f64; 2], f64, f64) {
-    let p = MastParams {
-        units: 1,
-        friction_mu: 0.0,
-        damping_n_s_per_m: 0.3,
-        // (from 30 deg the cable stays taut at this speed: nearer the flat
-        // state the mast must slow faster than the damping slows it, and a
-        // cable reeling in at a constant speed goes slack, as the closed
-        // form's negative tension says)
-        start_deg: 30.0,
-        ..MastParams::default()
-    };
+    // (from 30 deg the cable stays taut at 0.02 m/s: nearer the flat state
+    // the mast must slow faster than the damping slows it, and a cable
+    // reeling in at a constant speed goes slack, as the closed form's
+    // negative tension says)
+    let p = one_unit_mast();
     let speed = 0.02;
     let mut sim = mast_sim_members(&p, elastic);
     sim.set_cable_speed(0, Some(speed)).expect("speed command");
