@@ -113,16 +113,20 @@ pub struct SolverSettings {
     /// (the transient resolved). A steady creep changes its sliding little
     /// per step and is not repeated.
     pub blend_change_rel: f64,
-    /// Elastic members: the sub-step after accelerations were solved at
-    /// acceleration level (a start, a latch, a command change) is a
-    /// backward-Euler step of at most this fraction of the step. Under the
-    /// average acceleration the members' fast damper mode (rate
-    /// r = tau EA / (L m), ~1e6 /s on the bundled models) has the
-    /// amplification (1 - x) / (1 + x) -> -1, x = h r / 2, and would keep
-    /// the mismatch between that solution and the step's own ringing in the
-    /// accelerations, multipliers and motor tensions; backward Euler's
-    /// 1 / (1 + 2x) removes it in one sub-step, and this bound keeps the
-    /// rule's first-order error negligible.
+    /// Elastic members: this many sub-steps after accelerations were solved
+    /// at acceleration level (a start, a latch, a command change, a motor's
+    /// engagement) are backward-Euler steps, the first
+    /// `restart_substep_fraction` of the step long, each doubling the next.
+    /// Under the average acceleration the members' overdamped vibration
+    /// (rates r up to tau EA / (L m), ~1e6 /s on the bundled models) has
+    /// the amplification (1 - x) / (1 + x) -> -1, x = h r / 2, and would
+    /// keep the mismatch between that solution and the step's own ringing
+    /// in the accelerations, multipliers and motor tensions; backward
+    /// Euler's 1 / (1 + 2x) removes every mode its sub-steps are long
+    /// against, and short ones keep the rule's first-order error small.
+    /// 0: none.
+    pub restart_substeps: usize,
+    /// ... the first of them this fraction of the step long.
     pub restart_substep_fraction: f64,
     /// Smallest sub-step, as a fraction of the requested step, tried before a
     /// non-converging Newmark iteration is reported.
@@ -268,6 +272,7 @@ impl Default for SolverSettings {
             newmark_newton_line_search_max: 20,
             newmark_newton_curvature: 0.25,
             blend_change_rel: 0.25,
+            restart_substeps: 3,
             restart_substep_fraction: 0.01,
             min_substep_fraction: 1.0 / 1024.0,
             max_substeps: 10_000,

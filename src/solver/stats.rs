@@ -48,8 +48,8 @@ pub struct SolverStats {
     /// which latch at once as their row, L/EA + 1/k).
     pub latches: u64,
     /// Elastic members: sub-steps taken under the backward-Euler rule
-    /// because they start from accelerations solved at acceleration level
-    /// (a start, a latch, a command change: `Core::restarted`).
+    /// because they follow accelerations solved at acceleration level (a
+    /// start, a latch, a command change: `restart_substeps`).
     pub restart_backward_euler: u64,
     /// Trial sub-steps cut at a unilateral spring's contact onset or
     /// release (`contact_cut_rel`: an end stop's kink located).

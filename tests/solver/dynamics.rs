@@ -850,24 +850,30 @@ fn a_capstan_hold_creeps_at_the_regularized_speed() {
 /// backward-Euler step instead of being halved (`blend_change_rel`). Oracles:
 /// the closed-form creep speed, as above, and the energy ledger, which books
 /// the backward-Euler steps' own term (h/2) (A_1 - A_0)^T M Vbar from its
-/// formula: a wrong term would leave the balance off by its size.
+/// formula: a wrong term would leave the balance off by its size. Without
+/// the start's backward-Euler sub-steps (`restart_substeps = 0`) the blend
+/// entry takes the start's transient whole and the term is large; with
+/// them (the default) the entry after them is judged from the start's
+/// sliding: judged from their end it did not fire, and the creep came out
+/// 2.8e-4 off.
 #[test]
 fn a_capstan_hold_with_backward_euler_entries_creeps_at_the_regularized_speed() {
     for slip in [1e-3, 5e-4] {
-        // (measured: 3.0e-8 and 3.5e-9 relative, each with the start's
-        // short backward-Euler sub-step (`restart_substep_fraction`) and one
-        // backward-Euler entry after it, judged from the start's sliding:
-        // judged from the short sub-step's end it did not fire, and the
-        // creep came out 2.8e-4 off)
-        let sim = capstan_creep(slip, "elastic_members = true");
-        let (st, s) = (sim.solver_stats(), sim.state());
-        assert!(st.fallbacks.blend_entry_backward_euler > 0, "{st:?}");
-        assert_eq!(st.fallbacks.blend_entry_halvings, 0, "{st:?}");
-        // (the term is far above what the balance tolerates: left out, the
-        // balance check in `capstan_creep` would fail)
-        let scale = s.energy.scale_j(s.kinetic_energy_j(sim.model()));
-        let term = s.energy.integrator_work_j.abs();
-        assert!(term > 10.0 * 1e-6 * scale, "{term:e} J of {scale:e} J");
+        for restarts in [0, 3] {
+            let solver = format!("elastic_members = true\nrestart_substeps = {restarts}");
+            let sim = capstan_creep(slip, &solver);
+            let (st, s) = (sim.solver_stats(), sim.state());
+            assert!(st.fallbacks.blend_entry_backward_euler > 0, "{st:?}");
+            assert_eq!(st.fallbacks.blend_entry_halvings, 0, "{st:?}");
+            assert_eq!(st.restart_backward_euler, restarts as u64);
+            if restarts == 0 {
+                // (the term is far above what the balance tolerates: left
+                // out, the balance check in `capstan_creep` would fail)
+                let scale = s.energy.scale_j(s.kinetic_energy_j(sim.model()));
+                let term = s.energy.integrator_work_j.abs();
+                assert!(term > 10.0 * 1e-6 * scale, "{term:e} J of {scale:e} J");
+            }
+        }
     }
 }
 

@@ -152,18 +152,17 @@ fn a_frictionless_one_unit_mast_follows_the_speed_and_its_tension_the_closed_for
 
 /// Elastic members (the motor's length held at the step's end with the
 /// members' relaxation, `motor_tensions`): the same oracles, the length to
-/// 1e-8 m, the tension's mean over each step to 1e-4, the deploy time to
-/// 1e-6 s. At the steps' ends the tension rings about the closed form by
-/// up to 4.5 %: the engagement's velocity jump excites a member-stretch
-/// mode (rate ~3e4 /s) that the trapezoid does not damp and the short
-/// backward-Euler sub-step after it (`restart_substep_fraction` 0.01)
-/// leaves 1/16 of; bounded here by 0.1 (without that sub-step: 0.5).
+/// 1e-8 m, the tension at the steps' ends and its mean over each step to
+/// 1e-4 (measured 1.2e-5 and 8.7e-6), the deploy time to 1e-6 s. Without
+/// the backward-Euler sub-steps after the engagement (`restart_substeps`)
+/// the tension rang about the closed form by half its value; with one of
+/// dt/100, by 4.5 %.
 #[test]
 fn with_elastic_members_the_one_unit_mast_follows_the_speed_and_the_closed_form() {
     let (checked, worst_len, worst_t, t, t_d) = one_unit_mast_at_speed(true);
     assert!(checked > 100, "{checked} steps checked");
     assert!(worst_len < 1e-8, "{worst_len}");
-    assert!(worst_t[1] < 1e-4 && worst_t[0] < 0.1, "{worst_t:?}");
+    assert!(worst_t[0] < 1e-4 && worst_t[1] < 1e-4, "{worst_t:?}");
     assert!(
         (t - t_d).abs() < 1e-6,
         "deployed at {t} s, the kinematics say {t_d} s"

@@ -62,16 +62,17 @@ pub(super) struct Core {
     /// where a trial stepped over the friction blend's fast transient
     /// (`blend_change_rel`).
     pub backward_euler: bool,
-    /// The state's accelerations were solved at acceleration level
-    /// (`consistent_accelerations`: a start, a latch, a command change)
-    /// since the last accepted sub-step. With elastic members the next
-    /// trial is then a backward-Euler step (`Simulator::step`): the
-    /// members' fast damper mode (rate ~ tau k / m) has the amplification
+    /// Elastic members: backward-Euler sub-steps still to take since the
+    /// state's accelerations were solved at acceleration level
+    /// (`consistent_accelerations`: a start, a latch, a command change),
+    /// `restart_substeps` of them, the first `restart_substep_fraction` of
+    /// dt long and each doubling the next (`Simulator::step`). The members'
+    /// overdamped vibration (rates ~ tau k / m) has the amplification
     /// (1 - x) / (1 + x) -> -1 under the average acceleration, which would
     /// keep the mismatch between that solution and the step's own (index 3)
     /// ringing in A and lambda from step to step, undamped; backward Euler's
-    /// 1 / (1 + 2x) -> 0 removes it in one sub-step.
-    pub restarted: bool,
+    /// 1 / (1 + 2x) -> 0 removes each mode its sub-steps are long against.
+    pub restart_substeps_left: usize,
     /// Buffers of the Newton steps of the Newmark iteration.
     pub newton: NewtonWork,
     /// The last Newmark step needed Newton steps and a pulley's sliding
@@ -166,7 +167,7 @@ impl Core {
             lagged_friction: false,
             newton_secant: false,
             backward_euler: false,
-            restarted: false,
+            restart_substeps_left: 0,
             blend_entry: false,
             newton_last: false,
             newton: NewtonWork::new(model.solver.newmark_newton_krylov_max, n, m),

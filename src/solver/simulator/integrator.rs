@@ -132,7 +132,7 @@ impl Core {
     ) -> Result<(), SolverError> {
         if st.elastic_members {
             self.compliant = Some((model.dt_s, false));
-            self.restarted = true;
+            self.restart_substeps_left = st.restart_substeps;
         }
         let result = self.consistent_fixed_point(model, cmd, st);
         self.compliant = None;

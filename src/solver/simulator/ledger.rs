@@ -32,13 +32,15 @@ impl Simulator {
     /// Commits the trial step of length h to the state, with the energy ledger.
     pub(super) fn accept(&mut self, h: f64) {
         self.core.stats.substeps += 1;
-        // (after a restart's backward-Euler sub-step the next one judges a
+        // (after a restart's backward-Euler sub-steps the next one judges a
         // blend entry from the restart's sliding: `friction_blend_entered`)
-        let restart_be = std::mem::take(&mut self.core.restarted) && self.core.backward_euler;
-        self.core.blend_start_held = restart_be;
+        let core = &mut self.core;
+        let restart_be = core.backward_euler && core.restart_substeps_left > 0;
         if restart_be {
-            self.core.stats.restart_backward_euler += 1;
+            core.restart_substeps_left -= 1;
+            core.stats.restart_backward_euler += 1;
         }
+        core.blend_start_held = restart_be;
         std::mem::swap(&mut self.core.a_prev3, &mut self.core.a_prev4);
         self.core.prev_h4 = self.core.prev_h3;
         std::mem::swap(&mut self.core.a_prev2, &mut self.core.a_prev3);

@@ -368,10 +368,18 @@ impl Simulator {
         // (the next trial repeats a blend entry's under the backward-Euler rule)
         let mut backward_euler_next = false;
         while t_end - self.state.t_s > end_tol_s {
-            // (the trial after a restart too, with elastic members:
-            // `Core::restarted`)
-            self.core.backward_euler = std::mem::take(&mut backward_euler_next)
-                || (self.core.restarted && self.settings.elastic_members);
+            self.core.backward_euler = std::mem::take(&mut backward_euler_next);
+            // (the sub-steps after a restart, elastic members:
+            // `Core::restart_substeps_left`, the k-th at most 2^k times the
+            // first, also where a step's end falls among them)
+            let st = &self.settings;
+            let restart_left = self.core.restart_substeps_left;
+            if restart_left > 0 && st.elastic_members {
+                self.core.backward_euler = true;
+                let k = st.restart_substeps.saturating_sub(restart_left);
+                let cap = st.restart_substep_fraction * dt * 2f64.powi(k as i32);
+                h_try = h_try.min(cap);
+            }
             if let Some(why) = self.limits.reached() {
                 return Err(SolverError::Stopped {
                     t_s: self.state.t_s,
@@ -388,8 +396,7 @@ impl Simulator {
             }
             let h = h_try
                 .min(t_end - self.state.t_s)
-                .min(self.transient_step_s())
-                .min(self.restart_step_s(dt));
+                .min(self.transient_step_s());
             let budget_used = match self.trial(h, dt)? {
                 Trial::Sound { budget_used } => budget_used,
                 Trial::Retry { h_s } => {
@@ -436,16 +443,6 @@ impl Simulator {
         self.state.steps += 1;
         self.core.stats.steps += 1;
         Ok(self.state.locks.len() - locks_before)
-    }
-
-    /// Longest sub-step after a restart (`Core::restarted`, elastic
-    /// members: a backward-Euler one): `restart_substep_fraction` of the step.
-    fn restart_step_s(&self, dt: f64) -> f64 {
-        if self.core.restarted && self.settings.elastic_members {
-            self.settings.restart_substep_fraction * dt
-        } else {
-            f64::INFINITY
-        }
     }
 
     /// A trial sub-step of length h (stage `integrator`) and the gates on

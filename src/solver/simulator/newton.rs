@@ -244,7 +244,7 @@ impl Core {
     /// damper whose time constant the step exceeds many times; a change of
     /// the sliding there is that transient, stepped over.) The change is
     /// counted from `blend_start`: the step's start, or after a restart's
-    /// short backward-Euler sub-step the restart's (`Core::restarted`), whose
+    /// short backward-Euler sub-steps the restart's (`Core::restart_substeps_left`), whose
     /// transient that sub-step only began to damp.
     pub(super) fn friction_blend_entered(&self, model: &Model, change_rel: f64) -> bool {
         self.pulleys_in_blend(model, &self.blend_start)
