@@ -114,17 +114,12 @@ pub struct SolverSettings {
     /// per step and is not repeated.
     pub blend_change_rel: f64,
     /// Elastic members: this many sub-steps after accelerations were solved
-    /// at acceleration level (a start, a latch, a command change, a motor's
-    /// engagement) are backward-Euler steps, the first
-    /// `restart_substep_fraction` of the step long, each doubling the next.
-    /// Under the average acceleration the members' overdamped vibration
-    /// (rates r up to tau EA / (L m), ~1e6 /s on the bundled models) has
-    /// the amplification (1 - x) / (1 + x) -> -1, x = h r / 2, and would
-    /// keep the mismatch between that solution and the step's own ringing
-    /// in the accelerations, multipliers and motor tensions; backward
-    /// Euler's 1 / (1 + 2x) removes every mode its sub-steps are long
-    /// against, and short ones keep the rule's first-order error small.
-    /// 0: none.
+    /// at acceleration level (a start or reset, a latch, a command change,
+    /// a motor's release or engagement) are backward-Euler steps, the first
+    /// `restart_substep_fraction` of the step long, each doubling the next:
+    /// the average acceleration leaves the members' overdamped vibration
+    /// (rates up to tau EA / (L m)) ringing, undamped, from such a start
+    /// (docs/solver.md, Elastic members, Restarts). 0: none.
     pub restart_substeps: usize,
     /// ... the first of them this fraction of the step long.
     pub restart_substep_fraction: f64,

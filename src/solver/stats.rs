@@ -49,7 +49,8 @@ pub struct SolverStats {
     pub latches: u64,
     /// Elastic members: sub-steps taken under the backward-Euler rule
     /// because they follow accelerations solved at acceleration level (a
-    /// start, a latch, a command change: `restart_substeps`).
+    /// start or reset, a latch, a command change, a motor's release or
+    /// engagement: `restart_substeps`).
     pub restart_backward_euler: u64,
     /// Trial sub-steps cut at a unilateral spring's contact onset or
     /// release (`contact_cut_rel`: an end stop's kink located).
@@ -181,7 +182,7 @@ impl SolverStats {
             "{} steps, {} sub-steps, {} Newmark steps ({:.2} iterations each), \
              {} Newton steps ({} GMRES iterations, {} backtracks), \
              {} factorizations ({} reused, {} probes), {} solves ({:.2} iterations each; {} factored inside, {} with a kept one), \
-             {} latch searches ({} trial steps), {} latches, {} restarts taken backward-Euler, {} sub-steps cut at contacts, {} halved on their ledger's budget; fallbacks: {} halvings ({} at blend entries, {} for energy, {} accepted making energy, {} over their ledger's budget at the shortest), \
+             {} latch searches ({} trial steps), {} latches, {} restart sub-steps taken backward-Euler, {} sub-steps cut at contacts, {} halved on their ledger's budget; fallbacks: {} halvings ({} at blend entries, {} for energy, {} accepted making energy, {} over their ledger's budget at the shortest), \
              {} blend entries taken again backward-Euler, {} Newton switches ({} failed, {} retried with secant slopes), {} Newmark min-norm, {} lagged friction, {} projection min-norm, {} velocity min-norm, \
              {} refactored, {} re-probed, {} least-squares, {} unconverged solves, \
              {} dips rejected, {} root searches at their limit ({} search steps redone with basic solves), \

@@ -854,8 +854,7 @@ fn a_capstan_hold_creeps_at_the_regularized_speed() {
 /// the start's backward-Euler sub-steps (`restart_substeps = 0`) the blend
 /// entry takes the start's transient whole and the term is large; with
 /// them (the default) the entry after them is judged from the start's
-/// sliding: judged from their end it did not fire, and the creep came out
-/// 2.8e-4 off.
+/// sliding (`Core::blend_start`), and fires.
 #[test]
 fn a_capstan_hold_with_backward_euler_entries_creeps_at_the_regularized_speed() {
     for slip in [1e-3, 5e-4] {

@@ -64,14 +64,9 @@ pub(super) struct Core {
     pub backward_euler: bool,
     /// Elastic members: backward-Euler sub-steps still to take since the
     /// state's accelerations were solved at acceleration level
-    /// (`consistent_accelerations`: a start, a latch, a command change),
-    /// `restart_substeps` of them, the first `restart_substep_fraction` of
-    /// dt long and each doubling the next (`Simulator::step`). The members'
-    /// overdamped vibration (rates ~ tau k / m) has the amplification
-    /// (1 - x) / (1 + x) -> -1 under the average acceleration, which would
-    /// keep the mismatch between that solution and the step's own (index 3)
-    /// ringing in A and lambda from step to step, undamped; backward Euler's
-    /// 1 / (1 + 2x) -> 0 removes each mode its sub-steps are long against.
+    /// (`consistent_accelerations`: a start or reset, a latch, a command
+    /// change, a motor's release or engagement), of `restart_substeps`
+    /// (why: docs/solver.md, Elastic members, Restarts).
     pub restart_substeps_left: usize,
     /// Buffers of the Newton steps of the Newmark iteration.
     pub newton: NewtonWork,

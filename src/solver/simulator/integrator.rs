@@ -133,6 +133,8 @@ impl Core {
         if st.elastic_members {
             self.compliant = Some((model.dt_s, false));
             self.restart_substeps_left = st.restart_substeps;
+            // (the blend entry after them is judged from this restart)
+            self.blend_start_held = false;
         }
         let result = self.consistent_fixed_point(model, cmd, st);
         self.compliant = None;
@@ -263,10 +265,10 @@ impl Core {
 
     /// The end of an elastic-member step: the iteration left X_{n+1},
     /// V_{n+1} with Phi + tau A V + c lambda = 0 (and the tracking motors'
-    /// L(X_{n+1}) on their targets) and A_{n+1}, lambda consistent with
-    /// them; nothing is projected. The violation reported is what is left
-    /// of those equations; the members' strain energy and dampers' rate are
-    /// read for the ledger.
+    /// e + tau edot = 0, e = L(X_{n+1}) - L_target) and A_{n+1}, lambda
+    /// consistent with them; nothing is projected. The violation reported
+    /// is what is left of the rows' equation and the motors' miss |e|; the
+    /// members' strain energy and dampers' rate are read for the ledger.
     fn elastic_finish(&mut self, model: &Model) {
         self.jac.fill(model, &self.x);
         let (strain, worst) = self.elastic_readings(model);

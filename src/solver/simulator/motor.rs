@@ -155,6 +155,15 @@ impl MotorWork {
         }
     }
 
+    /// Motor `ci` at its commanded speed, with the state's tracking motors
+    /// (`others`) or alone.
+    fn take_modes_with(&mut self, s: &State, ci: usize, others: bool) {
+        for (j, (w, m)) in self.speed_m_s.iter_mut().zip(&s.motors).enumerate() {
+            let tracking = j == ci || (others && m.hold == MotorHold::Tracking);
+            *w = if tracking { m.speed_cmd_m_s } else { None };
+        }
+    }
+
     /// The lengths the tracking motors hold at the end of a trial of length
     /// h from the state: L_ref - s h.
     pub fn set_targets(&mut self, s: &State, h: f64) {
@@ -451,9 +460,12 @@ impl Simulator {
     fn motor_engage(&mut self, ci: usize) -> Result<Engage, SolverError> {
         let (model, core) = (&self.model, &mut self.core);
         let s = &mut self.state;
-        let speed = s.motors[ci].speed_cmd_m_s.expect("a speed command");
+        debug_assert!(s.motors[ci].speed_cmd_m_s.is_some(), "a speed command");
         core.x.copy_from_slice(&s.x);
         core.v.copy_from_slice(&s.v);
+        // (between sub-steps: the next trial sets its rule again; the jump
+        // takes the average acceleration's beta, as a latch's)
+        core.backward_euler = false;
         if self.settings.elastic_members {
             // (the members at their compliance over a step, c / beta(dt),
             // whose solves factor S + D themselves: well posed at the flat
@@ -464,23 +476,14 @@ impl Simulator {
             core.factor(model, crate::solver::linsolve::SolveMode::Basic)?;
         }
         // (this motor alone: the others keep their velocities' rates)
-        for (j, w) in core.motor.speed_m_s.iter_mut().enumerate() {
-            *w = (j == ci).then_some(speed);
-        }
+        core.motor.take_modes_with(s, ci, false);
         let moved = core.project_motor_velocities(model);
         // (with the motors tracking already: one system for all of them)
         let others =
             (0..s.motors.len()).any(|j| j != ci && s.motors[j].hold == MotorHold::Tracking);
         let solvable = match moved {
             Ok(()) if others => {
-                for (j, w) in core.motor.speed_m_s.iter_mut().enumerate() {
-                    let tracking = j == ci || s.motors[j].hold == MotorHold::Tracking;
-                    *w = if tracking {
-                        s.motors[j].speed_cmd_m_s
-                    } else {
-                        None
-                    };
-                }
+                core.motor.take_modes_with(s, ci, true);
                 core.motors_solvable(model)
             }
             _ => Ok(()),
