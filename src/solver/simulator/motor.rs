@@ -8,9 +8,10 @@
 //! - positions and velocities: mass-orthogonal corrections along d_k, the
 //!   structure's response to grad L_k (A d_k = 0), onto L_i(t) and -s_i.
 //! - elastic members (nothing projected): inside the Newmark iteration the
-//!   system holds L_i(X_{n+1}) = L_i(t_{n+1}) instead, linearized at the
-//!   iterate as the members' rows are; an engagement's velocity jump takes
-//!   the members at their step compliance, as a latch's (`impact`).
+//!   system holds e + tau edot = 0 instead, e = L_i(X_{n+1}) - L_i(t_{n+1}),
+//!   linearized at the iterate as the members' rows are; an engagement's
+//!   velocity jump takes the members at their step compliance, as a
+//!   latch's (`impact`).
 //!
 //! The tension stays in [0, `max_tension_n`]: beyond it the motor releases
 //! (to its limit or slack), and at every rigid latch; a released motor
@@ -204,8 +205,9 @@ impl Core {
     /// multipliers of the other forces already solved in `a`, `lambda`: one
     /// more solve per motor (its unit forces), then the k x k system for
     /// Lddot = 0, or inside elastic members' Newmark iteration for
-    /// L(X_{n+1}) = L_target (module doc). `a`, `lambda`, `q` and the cable readings end
-    /// with the motors' tensions in them.
+    /// e + tau edot = 0, e = L(X_{n+1}) - L_target (module doc). `a`,
+    /// `lambda`, `q` and the cable readings end with the motors' tensions in
+    /// them.
     pub fn motor_tensions(&mut self, model: &Model) -> Result<(), SolverError> {
         let mw = &mut self.motor;
         mw.a0.copy_from_slice(&self.a);
