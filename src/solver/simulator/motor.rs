@@ -159,10 +159,12 @@ impl MotorWork {
     /// Motor `ci` at its commanded speed, with the state's tracking motors
     /// (`others`) or alone.
     fn take_modes_with(&mut self, s: &State, ci: usize, others: bool) {
-        for (j, (w, m)) in self.speed_m_s.iter_mut().zip(&s.motors).enumerate() {
-            let tracking = j == ci || (others && m.hold == MotorHold::Tracking);
-            *w = if tracking { m.speed_cmd_m_s } else { None };
+        if others {
+            self.take_modes(s);
+        } else {
+            self.speed_m_s.fill(None);
         }
+        self.speed_m_s[ci] = s.motors[ci].speed_cmd_m_s;
     }
 
     /// The lengths the tracking motors hold at the end of a trial of length
