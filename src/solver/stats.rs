@@ -127,9 +127,6 @@ pub struct Fallbacks {
     /// A latch root search reached its iteration limit with the gap within
     /// the latch tolerance (beyond it, the search is an error).
     pub root_search_limit: u64,
-    /// A latch search's trial step whose least-squares iteration did not
-    /// converge was redone with basic solves.
-    pub latch_search_basic: u64,
     /// The accelerations' fixed point with cable inertia stopped at its iteration limit.
     pub consistent_unconverged: u64,
     /// A compliant latch turned rigid at `latch_max_periods` without having
@@ -185,7 +182,7 @@ impl SolverStats {
              {} latch searches ({} trial steps), {} latches, {} restart sub-steps taken backward-Euler, {} sub-steps cut at contacts, {} halved on their ledger's budget; fallbacks: {} halvings ({} at blend entries, {} for energy, {} accepted making energy, {} over their ledger's budget at the shortest), \
              {} blend entries taken again backward-Euler, {} Newton switches ({} failed, {} retried with secant slopes), {} Newmark min-norm, {} lagged friction, {} projection min-norm, {} velocity min-norm, \
              {} refactored, {} re-probed, {} least-squares, {} unconverged solves, \
-             {} dips rejected, {} root searches at their limit ({} search steps redone with basic solves), \
+             {} dips rejected, {} root searches at their limit, \
              {} inertia fixed points unconverged, {} latches unsettled at their limit, \
              {} compliant latches with no compliance",
             self.steps,
@@ -227,7 +224,6 @@ impl SolverStats {
             f.solve_unconverged,
             f.dips_rejected,
             f.root_search_limit,
-            f.latch_search_basic,
             f.consistent_unconverged,
             f.latch_unsettled,
             f.latch_without_compliance,

@@ -178,10 +178,11 @@ pub trait ConstraintSolver: Send {
     }
 }
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum SolverKind {
     Dense,
     /// Sparse LDL^T of S = A M^-1 A^T (faer), regularized, with refinement.
+    #[default]
     Sparse,
 }
 

@@ -1,9 +1,7 @@
-//! The work state of a step: buffers reused across steps, the constraint
-//! Jacobian and the backend's factorization, the trial state a stage is
-//! computing, and the counters. Every factorization and solve of the stepping
-//! loop goes through `Core::factor`, `Core::solve_accelerations` and
-//! `Core::correction`, which take the solve mode as an argument and book what
-//! the backend reports in `stats`.
+//! The work state of a step: buffers reused across steps, the Jacobian and
+//! the backend's factorization, the trial state, and the counters. Every
+//! factorization and solve of the stepping loop goes through `factor`,
+//! `solve_accelerations` and `correction`, which book the backend's reports.
 
 use super::newton::NewtonWork;
 use crate::solver::cable::CableEval;
@@ -38,63 +36,46 @@ pub(super) struct Core {
     pub lambda: Vec<f64>,
     pub cables: Vec<CableEval>,
     pub violation_m: f64,
-    /// Set (to the step length) while a Newmark step treats damping implicitly:
-    /// the solves then use the effective inverse masses 1 / (m + h/2 c).
+    /// The step length while a Newmark step takes damping implicitly: the
+    /// solves then use the inverse masses 1 / (m + gamma h c).
     pub implicit_h: Option<f64>,
     pub inv_mass_eff: Vec<f64>,
     pub v_star: Vec<f64>,
-    /// Per cable, the pulley sliding speeds at the step start, and whether the
-    /// current iteration takes the friction direction from them.
+    /// Per cable, the pulley sliding speeds at the step start; whether the
+    /// iteration takes the friction direction from them (`lagged_friction`).
     pub friction_sliding: Vec<Vec<f64>>,
-    /// Per cable, the pulley sliding speeds a blend entry is judged from
-    /// (`friction_blend_entered`): the trial's start, held at the restart's
-    /// through the sub-step after a restart's backward-Euler one
-    /// (`blend_start_held`).
+    pub lagged_friction: bool,
+    /// Per cable, the sliding speeds a blend entry is judged from
+    /// (`friction_blend_entered`): the trial's start, or the restart's, held
+    /// through the sub-step after the restart's backward-Euler ones.
     pub blend_start: Vec<Vec<f64>>,
     pub blend_start_held: bool,
-    pub lagged_friction: bool,
     /// The Newton steps take the friction's secant slopes back to the step
-    /// start (`cable::add_friction_derivative`): their retry after a failed
-    /// line search.
+    /// start: their retry after a failed line search.
     pub newton_secant: bool,
-    /// The trial step is a backward-Euler one (beta = 1/2, gamma = 1) instead
-    /// of the average-acceleration rule (1/4, 1/2): set by the simulator
-    /// where a trial stepped over the friction blend's fast transient
-    /// (`blend_change_rel`).
+    /// The trial is a backward-Euler step (beta = 1/2, gamma = 1) instead of
+    /// the average acceleration (1/4, 1/2).
     pub backward_euler: bool,
-    /// Elastic members: backward-Euler sub-steps still to take since the
-    /// state's accelerations were solved at acceleration level
-    /// (`consistent_accelerations`: a start or reset, a latch, a command
-    /// change, a motor's release or engagement), of `restart_substeps`
-    /// (why: docs/solver.md, Elastic members, Restarts).
+    /// Elastic members: backward-Euler sub-steps still to take after
+    /// accelerations solved at acceleration level (`consistent_accelerations`;
+    /// docs/solver.md, Elastic members, Restarts).
     pub restart_substeps_left: usize,
     /// Buffers of the Newton steps of the Newmark iteration.
     pub newton: NewtonWork,
-    /// The last Newmark step needed Newton steps and a pulley's sliding
-    /// went through the friction blend's fast transient (`blend_change_rel`).
+    /// The last Newmark step needed Newton steps (`newton_last`: the next
+    /// starts them at once), and went through the friction blend's fast
+    /// transient (`blend_entry`, `blend_change_rel`).
     pub blend_entry: bool,
-    /// The last Newmark step needed Newton steps: the next one starts them
-    /// at its first iterate (where the friction blend is in play).
     pub newton_last: bool,
-    /// Accelerations at the start of the last accepted step, and its length (None
-    /// after a latch or a reset: no extrapolation across a velocity jump).
-    pub a_prev: Vec<f64>,
-    pub prev_h: Option<f64>,
-    pub a_prev2: Vec<f64>,
-    pub prev_h2: Option<f64>,
-    pub a_prev3: Vec<f64>,
-    pub prev_h3: Option<f64>,
-    pub a_prev4: Vec<f64>,
-    pub prev_h4: Option<f64>,
-    /// The least-work split of redundant multipliers (member forces on
-    /// request, latch impulses), with a backend of its own; made at first use.
+    /// The accelerations the Newmark predictor extrapolates from.
+    pub history: super::integrator::AccelHistory,
+    /// The least-work split of redundant multipliers, with a backend of its
+    /// own; made at first use.
     pub least_work: Option<LeastWork>,
-    /// Compliant latches reached while others engage, along which the
-    /// structure cannot move (inverse effective mass 0: e.g. the ring's
-    /// radial sleeves, shortest at the flat state): (element, instant it
-    /// reached its lock, s; the side of its lock it came from, the sign of
-    /// its gap at the sub-step's start, 0 if unknown). They latch rigid once
-    /// the transients are over; one found past its lock is a missed latch.
+    /// Rigid members: compliant latches reached while others engage, along
+    /// which the structure cannot move, as (element, instant it reached its
+    /// lock s, sign of its gap before, 0 if unknown); they latch rigid once
+    /// the transients are over (`latch_waiting`).
     pub waiting: Vec<(usize, f64, f64)>,
     /// The compliant elements' and engaged compliant latches' buffers.
     pub element_springs: crate::solver::springs::ElementSprings,
@@ -102,9 +83,9 @@ pub(super) struct Core {
     pub motor: super::motor::MotorWork,
     /// What the stepping loop did (the aux solver's work is not counted).
     pub stats: SolverStats,
-    /// Elastic members (`SolverSettings::elastic_members`): per row its
-    /// compliance c (m/N; rows that are not members `rigid_compliance`), whether it is a member, D = c / beta of the solve in
-    /// progress, and Phi and A V (scratch of the right-hand sides).
+    /// Elastic members: per row its compliance c (m/N; `rigid_compliance`
+    /// for rows that are not members), whether it is a member, D = c / beta
+    /// of the solve in progress, and Phi and A V (scratch).
     pub row_compliance: Vec<f64>,
     pub row_member: Vec<bool>,
     pub row_d: Vec<f64>,
@@ -116,10 +97,9 @@ pub(super) struct Core {
     pub compliant: Option<(f64, bool)>,
     /// The members' relaxation time tau (s, `member_relaxation_s`).
     pub relaxation_s: f64,
-    /// Elastic members at the trial's end: strain energy
-    /// 1/2 sum Phi_i^2 / c_i (J); their forces on the joints A^T lambda at
-    /// the trial's end and at the state's (N), whose work over a step
-    /// (trapezoid, as the Newmark rule takes every force) the ledger books.
+    /// Elastic members: strain energy 1/2 sum Phi_i^2 / c_i at the trial's
+    /// end (J); their joint forces A^T lambda at the trial's end and at the
+    /// state (N), whose trapezoid work the ledger books.
     pub strain_trial_j: f64,
     pub member_force_trial: Vec<f64>,
     pub member_force_state: Vec<f64>,
@@ -130,7 +110,7 @@ impl Core {
         let n = model.n_coords();
         let jac = Jacobian::pattern(model, locked);
         let m = jac.nrows;
-        Core {
+        let mut core = Core {
             jac,
             solver,
             q: vec![0.0; n],
@@ -166,14 +146,7 @@ impl Core {
             blend_entry: false,
             newton_last: false,
             newton: NewtonWork::new(model.solver.newmark_newton_krylov_max, n, m),
-            a_prev: vec![0.0; n],
-            prev_h: None,
-            a_prev2: vec![0.0; n],
-            prev_h2: None,
-            a_prev3: vec![0.0; n],
-            prev_h3: None,
-            a_prev4: vec![0.0; n],
-            prev_h4: None,
+            history: super::integrator::AccelHistory::new(n),
             least_work: None,
             waiting: Vec::new(),
             element_springs: crate::solver::springs::ElementSprings::new(model),
@@ -189,21 +162,17 @@ impl Core {
             strain_trial_j: 0.0,
             member_force_trial: vec![0.0; n],
             member_force_state: vec![0.0; n],
-        }
-        .with_compliance(model)
+        };
+        core.set_compliance(model);
+        core
     }
 
     /// Per-row compliances of the current pattern (elastic members).
-    fn with_compliance(mut self, model: &Model) -> Core {
-        self.set_compliance(model);
-        self
-    }
-
     fn set_compliance(&mut self, model: &Model) {
         LeastWork::row_compliance(model, &self.jac, &mut self.row_compliance);
-        // A latched sleeve with a compliant latch is its tube in series with
-        // the latch: c = L/EA + 1/k, so its force k g carries on when the
-        // latch's transient ends and its row takes over (`settle_transients`).
+        // (a latched sleeve with a compliant latch: its tube in series with
+        // the latch, c = L/EA + 1/k, so its force carries on when its
+        // transient ends)
         for b in &self.jac.blocks {
             if model.elements[b.element].latch_spring().is_some() {
                 self.row_compliance[b.row0] = latched_sleeve_compliance(model, b.element);
@@ -223,9 +192,8 @@ impl Core {
         }
     }
 
-    /// beta = dPhi_{n+1}/dA_{n+1} + tau dPhidot_{n+1}/dA_{n+1} per unit
-    /// of A dA_{n+1}: h^2/4 + tau h/2 (Newmark's average acceleration; the
-    /// compliance of a velocity jump and of a latch's effective mass).
+    /// beta = d(Phi + tau Phidot)_{n+1} / d(A A_{n+1}) = h^2/4 + tau h/2
+    /// under the average acceleration (also for velocity jumps).
     pub fn relaxation_beta(&self, h: f64) -> f64 {
         h * (0.25 * h + 0.5 * self.relaxation_s)
     }
@@ -239,8 +207,7 @@ impl Core {
         }
     }
 
-    /// What X_{n+1} and V_{n+1} move per unit of A_{n+1} in a trial step of
-    /// length h under its rule (`backward_euler`).
+    /// What X_{n+1} and V_{n+1} move per unit of A_{n+1} under the trial's rule.
     pub fn step_gains(&self, h: f64) -> StepGains {
         if self.backward_euler {
             StepGains {
@@ -268,8 +235,7 @@ impl Core {
         (strain, worst)
     }
 
-    /// The state's member forces on the joints, A^T lambda with the
-    /// Jacobian filled at the state (after a solve from scratch).
+    /// The state's member forces on the joints A^T lambda (Jacobian at the state).
     pub fn store_state_member_forces(&mut self) {
         self.jac.mul_t(&self.lambda, &mut self.member_force_state);
     }
@@ -286,8 +252,7 @@ impl Core {
         self.set_compliance(model);
     }
 
-    /// The inverse masses the solves use: M^-1, or (M + h/2 C)^-1 inside an
-    /// implicitly damped Newmark step.
+    /// The solves' inverse masses: M^-1, or (M + gamma h C)^-1 inside a Newmark step.
     pub(super) fn weights<'a>(
         implicit_h: Option<f64>,
         eff: &'a [f64],
@@ -333,14 +298,12 @@ impl Core {
     }
 
     /// Constrained accelerations `a`, multipliers `lambda` for the applied
-    /// forces `q` and the convective term `c`, with the current factorization.
+    /// forces `q` and the right side `c`, with the current factorization.
     pub fn solve_accelerations(&mut self, model: &Model) -> Result<(), SolverError> {
         let w = Self::weights(self.implicit_h, &self.inv_mass_eff, model);
         let report = if let Some((h, iterating)) = self.compliant {
-            // D = c / beta: Phi + tau Phidot + c lambda = 0 at the step's
-            // end, beta its derivative in A_{n+1} per unit of A A_{n+1}
-            // (the trial's rule inside the Newmark iteration; a state's
-            // accelerations from scratch take the average acceleration's)
+            // D = c / beta (the trial's rule inside the Newmark iteration,
+            // else the average acceleration's)
             let beta = if iterating {
                 self.step_relaxation_beta(h)
             } else {
@@ -351,9 +314,8 @@ impl Core {
                 *d = k * c;
             }
             if let Some((_, false)) = self.compliant {
-                // At acceleration level (a state from scratch) a member's
-                // force is its state's, lambda = -(Phi + tau A V) / c: a
-                // row with D >> S and rhs D lambda (set with `c`).
+                // (at acceleration level a member's force is its state's,
+                // lambda = -(Phi + tau A V) / c: D >> S, rhs D lambda in `c`)
                 for i in 0..self.row_d.len() {
                     if self.row_member[i] {
                         self.row_d[i] = MEMBER_PIN * k * self.row_compliance[i];
@@ -397,38 +359,28 @@ impl Core {
         Ok(())
     }
 
-    /// The least-work split (into `mu`) of the joint forces held in `dx`
-    /// among the rows of the Jacobian as last filled (`least_work`): member
-    /// forces, or latch impulses from the joint impulses of a velocity jump.
-    /// Its own backend: the stepping solver and its counters are untouched.
+    /// The least-work split (into `mu`) of the joint forces in `dx` among the
+    /// rows of the Jacobian as last filled, on its own backend (`least_work`).
     pub fn least_work_split(&mut self, model: &Model, kind: SolverKind) -> Result<(), SolverError> {
         let lw = self.least_work.get_or_insert_with(|| LeastWork::new(kind));
         lw.multipliers(model, &self.jac, &self.dx, &mut self.mu)
     }
 
     /// Inverse effective mass of the structure along sleeve `e` at the trial
-    /// x (1/kg): the rate l'' of its length under a unit pair of forces
-    /// pulling its ends apart with every active constraint holding (one
-    /// solve with Q = J_e^T, Adot Xdot = 0),
+    /// x (1/kg): l'' under a unit pair of forces pulling its ends apart, every
+    /// constraint holding (one solve with Q = J_e^T, Adot Xdot = 0),
     ///
-    ///     w = J_e (M^-1 - M^-1 A^T S^+ A M^-1) J_e^T,   S = A M^-1 A^T.
+    ///     w = J_e (M^-1 - M^-1 A^T S^+ A M^-1) J_e^T,   S = A M^-1 A^T,
     ///
-    /// A spring of stiffness k across the sleeve then has the frequency
-    /// sqrt(k w) along the structure's mechanisms. Uses `q`, `c`, `a`,
-    /// `lambda` (and `row_d`) as scratch.
+    /// so a spring k across it has the frequency sqrt(k w). Rigid members
+    /// (`step_s` None): at the current factorization. Elastic members
+    /// (`step_s` Some(h)), S nearly singular near the flat state: every row
+    /// at the rigid rows' compliance c_r over a step h, D = c_r / beta,
     ///
-    /// Rigid members (`step_s` None): at the current factorization.
+    ///     w = J_e (M^-1 - M^-1 A^T (S + D)^-1 A M^-1) J_e^T   (Woodbury),
     ///
-    /// Elastic members (`step_s` Some(h)): S is nearly singular near the flat
-    /// state, so w is taken with every row at the rigid rows' compliance c_r
-    /// over a step of length h (beta = h^2/4 + tau h/2, D = c_r / beta):
-    ///
-    ///     w = J_e (M + beta A^T A / c_r)^-1 J_e^T
-    ///       = J_e (M^-1 - M^-1 A^T (S + D)^-1 A M^-1) J_e^T   (Woodbury),
-    ///
-    /// S + D positive definite, factored at x: the rigid w along a mechanism,
-    /// plus about c_r f / beta (f the static compliance along the sleeve per
-    /// unit c_r; docs/solver.md). The Jacobian is filled at x.
+    /// S + D factored at x (docs/solver.md, Latches). Uses `q`, `c`, `a`,
+    /// `lambda`, `row_d` as scratch.
     pub fn inverse_effective_mass(
         &mut self,
         model: &Model,
@@ -447,7 +399,6 @@ impl Core {
         self.c.fill(0.0);
         debug_assert!(self.implicit_h.is_none(), "between steps: plain masses");
         if let Some(h) = step_s {
-            // (compliant solves factor S + D themselves)
             self.jac.fill(model, &self.x);
             let d = rigid_compliance(model) / self.relaxation_beta(h);
             self.row_d.fill(d);
@@ -470,8 +421,7 @@ impl Core {
             .max(0.0))
     }
 
-    /// Commits the trial (x, v, a, multipliers, cable readings) to the state,
-    /// keeping the largest constraint violation seen.
+    /// Commits the trial to the state, keeping the largest violation seen.
     pub fn commit_trial(&self, s: &mut State) {
         s.x.copy_from_slice(&self.x);
         s.v.copy_from_slice(&self.v);
@@ -512,8 +462,7 @@ fn rigid_compliance(model: &Model) -> f64 {
     model.solver.rigid_row_compliance_rel * model.stiffest_compliance_m_per_n
 }
 
-/// The compliance of a latched sleeve's row (m/N): its tube's L/EA, in
-/// series with its compliant latch's 1/k where it has one.
+/// A latched sleeve's row compliance (m/N): L/EA, plus 1/k of a compliant latch.
 pub(super) fn latched_sleeve_compliance(model: &Model, e: usize) -> f64 {
     let el = &model.elements[e];
     let mut tube = [f64::NAN];
@@ -530,8 +479,7 @@ pub(super) struct TrialCopy {
     lambda: Vec<f64>,
     cables: Vec<CableEval>,
     violation_m: f64,
-    /// Elastic members: the trial's strain energy (J) and member forces
-    /// A^T lambda, which the ledger books when the trial is accepted.
+    /// Elastic members: the trial's strain energy (J) and member forces.
     strain_j: f64,
     member_force: Vec<f64>,
 }

@@ -1,18 +1,14 @@
-//! Stage `events`: lock conditions inside a trial step.
+//! Stage `events`: lock conditions inside a trial step (docs/solver.md, Latches).
 //!
-//! Every lockable element describes its lock condition (`Constraint::
-//! lock_condition`: a signed gap g whose zero is the latch, and its rate).
-//! When g changes sign inside the step, or the step's cubic Hermite
-//! interpolant shows it touching zero and turning back (both ends on the
-//! same side; confirmed on the step map), the step is redone with the length
-//! h* at which g(h*) = 0 (root of the step map itself, by the Illinois
-//! method). The impact stage then latches the element.
+//! Each lockable element gives a signed gap g whose zero is the latch, and its rate
+//! (`Constraint::lock_condition`). When g changes sign inside the step, or the step's cubic
+//! Hermite interpolant touches zero and turns back (confirmed on the step map), the step is redone
+//! with the length h* at which g(h*) = 0 (Illinois root of the step map). The impact stage then
+//! latches the element.
 //!
-//! Give-ups: a root search that ends at its iteration limit with |g| above
-//! the latch tolerance is an error (`SolverError::LatchSearch`); a lockable
-//! element found past its lock without latching after a latch event is an
-//! error (`SolverError::MissedLatch`); a touch whose check step fails fails
-//! the sub-step (retried shorter, as any failed sub-step).
+//! Errors: a root search at its iteration limit with |g| above the latch tolerance
+//! (`SolverError::LatchSearch`); an element found past its lock without latching after a latch
+//! event (`SolverError::MissedLatch`). A touch whose check step fails fails the sub-step.
 
 use super::Simulator;
 use crate::solver::elements::Constraint;
@@ -25,9 +21,8 @@ pub(super) fn gap(model: &Model, e: usize, x: &[f64]) -> f64 {
     model.elements[e].lock_gap(x).unwrap_or(f64::NAN)
 }
 
-/// The first lockable element (other than `except`, not `held`: latched or
-/// engaging) whose gap has changed sign between x0 and x1 and ended more than
-/// `tol` past zero.
+/// The first lockable element other than `except` and not `held` (latched or engaging) whose gap
+/// changed sign between x0 and x1 and ended more than `tol` past zero.
 pub(super) fn crossed_unlatched(
     model: &Model,
     held: &dyn Fn(usize) -> bool,
@@ -57,8 +52,7 @@ pub(super) fn hermite_basis(s: f64) -> [f64; 4] {
     ]
 }
 
-/// Writes the cubic Hermite interpolant, at fraction s of a step of length h,
-/// of the joints `joints` into `out` (other entries untouched).
+/// Writes the cubic Hermite interpolant of `joints` at fraction s of a step of length h to `out`.
 fn hermite_joints(
     (x0, v0, x1, v1): (&[f64], &[f64], &[f64], &[f64]),
     h: f64,
@@ -74,8 +68,7 @@ fn hermite_joints(
     }
 }
 
-/// The element's gap along the step's interpolant at fraction s (the
-/// element's own joints are interpolated into `scratch`).
+/// The element's gap at fraction s of the step's interpolant (its joints written to `scratch`).
 fn interpolated_gap(
     el: &dyn Constraint,
     ends: (&[f64], &[f64], &[f64], &[f64]),
@@ -88,13 +81,10 @@ fn interpolated_gap(
 }
 
 impl Simulator {
-    /// The unlocked element whose gap reaches zero first in the trial step, by
-    /// the Hermite interpolant of the step, with the fraction s_hi of the step
-    /// by which it has crossed: 1 when the gap changes sign over the step, less
-    /// when it touches zero and turns back inside the step (both ends on the
-    /// same side; s_hi is then the interpolant's turning point).
-    /// Dips of the elements in `no_dips` (found not real on the step map) are
-    /// not considered again; their sign changes are.
+    /// The unlocked element whose gap reaches zero first on the step's Hermite interpolant, with
+    /// the fraction s_hi of the step by which it has crossed: 1 for a sign change over the step,
+    /// else the interpolant's turning point (a touch and turn). Dips of the elements in `no_dips`
+    /// (not real on the step map) are skipped; their sign changes are not.
     pub(super) fn first_crossing(&mut self, h: f64, no_dips: &[usize]) -> Option<(usize, f64)> {
         let (model, s, c, st) = (&self.model, &self.state, &self.core, &self.settings);
         let scratch = &mut self.interp;
@@ -102,7 +92,7 @@ impl Simulator {
         let iterations = st.dip_search_iterations;
         let mut best: Option<(f64, usize, f64)> = None;
         for &e in &model.locks {
-            if s.locked[e] || super::impact::engaging(s, c, e) {
+            if super::impact::held(s, c, e) {
                 continue;
             }
             let el = model.elements[e].as_ref();
@@ -115,10 +105,9 @@ impl Simulator {
             if g0 == 0.0 || g0.is_nan() || g1.is_nan() {
                 continue;
             }
-            // A sign change over the step, or else a touch and turn: the gap
-            // closes at the start (g0 gdot0 < 0) and opens at the end
-            // (g1 gdot1 > 0); then the interpolant's extremum (golden section
-            // on the g0-signed gap, unimodal over one turn) decides.
+            // A sign change, or a touch and turn (g0 gdot0 < 0, g1 gdot1 > 0): then the
+            // interpolant's extremum decides (golden section on the g0-signed gap, unimodal over
+            // one turn).
             let crossed = g0 * g1 <= 0.0;
             if !crossed
                 && (no_dips.contains(&e) || !(g0 * c0.rate_m_s < 0.0 && g1 * c1.rate_m_s > 0.0))
@@ -170,17 +159,13 @@ impl Simulator {
         best.map(|(_, e, s_hi)| (e, s_hi))
     }
 
-    /// Finds h* in (0, h] with gap_target(step(h*)) = 0 by the Illinois method on the
-    /// step map, leaving the trial at h*. If another element turns out to cross
-    /// earlier, it becomes the target. Every trial step solves in least
-    /// squares: they all lie just short of a latch, typically the flat
-    /// deployed state where redundant rows are only nearly redundant.
+    /// Finds h* in (0, h] with gap_target(step(h*)) = 0 by the Illinois method on the step map,
+    /// leaving the trial at h*; an element found crossing earlier becomes the target. Trial steps
+    /// solve in least squares (`search_step`).
     ///
-    /// `s_hi` < 1 (a touch and turn inside the step): the step map is first
-    /// evaluated at s_hi h for a bracket. A gap there within the latch
-    /// tolerance is a touch: h* = s_hi h. A gap that has not crossed after
-    /// all (the interpolant's dip was not real) gives None, with the trial
-    /// left at whatever it last computed; a failed step there is the error.
+    /// `s_hi` < 1: the step map is first evaluated at s_hi h for a bracket. A gap there within
+    /// the latch tolerance is a touch (h* = s_hi h); one not crossed (the dip was not real) gives
+    /// None, the trial left at its last computation.
     pub(super) fn locate_latch(
         &mut self,
         mut target: usize,
@@ -194,11 +179,9 @@ impl Simulator {
         if s_hi < 1.0 {
             b = s_hi * h;
             self.core.stats.latch_search_steps += 1;
-            // (a check step that fails fails the sub-step, which is then
-            // retried shorter: a touch is not dropped unchecked)
+            // a failing check step fails the sub-step: a touch is never dropped unchecked
             self.core.newmark(&self.model, &self.state, b, st, mode)?;
-            // An element that has crossed by then comes first (e.g. the ring's
-            // diagonals, just before its radial sleeves touch at the flat state).
+            // an element crossed by then comes first (ring diagonals before radial sleeves touch)
             if let Some(other) = self.crossed_by(target) {
                 target = other;
             } else {
@@ -237,9 +220,8 @@ impl Simulator {
                 b = m;
                 gb = gap(&self.model, target, &self.core.x);
                 side = 0;
-                // (a crossing within a vanishing part of the sub-step: the
-                // step's projection carried the sleeves across, not the
-                // motion, and nothing locates it in time)
+                // a crossing within a vanishing part of the sub-step is the projection's,
+                // not the motion's: nothing locates it in time
                 if b <= st.root_bracket_rel * h {
                     break;
                 }
@@ -264,9 +246,8 @@ impl Simulator {
                 side = 1;
             }
         }
-        // Iteration limit: the far end of the bracket is accepted when the
-        // latch will take it (within the latch tolerance; a counted
-        // fallback), else the search has failed.
+        // iteration limit: the bracket's far end is accepted within the latch tolerance
+        // (counted fallback), else the search has failed
         self.search_step(b)?;
         let st = &self.settings;
         let gb = gap(&self.model, target, &self.core.x);
@@ -282,35 +263,21 @@ impl Simulator {
         })
     }
 
-    /// One trial step of length h of a latch search, in least squares (the
-    /// trials lie just short of a latch); where that iteration does not
-    /// converge, once more with basic solves (a counted fallback: near a
-    /// latch whose rows are nearly redundant with others, the least-squares
-    /// map can stall where the basic one, which drops them, contracts).
+    /// One latch-search trial step of length h, in least squares: trials lie just short of a latch,
+    /// typically the flat deployed state, where redundant rows are only nearly redundant. One that
+    /// fails fails the sub-step, which is retried shorter.
     fn search_step(&mut self, h: f64) -> Result<(), SolverError> {
-        let st = &self.settings;
         self.core.stats.latch_search_steps += 1;
-        match self
-            .core
-            .newmark(&self.model, &self.state, h, st, SolveMode::MinNorm)
-        {
-            Err(SolverError::NoConvergence { .. }) => {
-                self.core.stats.fallbacks.latch_search_basic += 1;
-                self.core.stats.latch_search_steps += 1;
-                self.core
-                    .newmark(&self.model, &self.state, h, st, SolveMode::Basic)
-            }
-            other => other,
-        }
+        let (model, st) = (&self.model, &self.settings);
+        self.core
+            .newmark(model, &self.state, h, st, SolveMode::MinNorm)
     }
 
-    /// Another unlocked element whose gap has changed sign (beyond the latch
-    /// tolerance) in the current trial.
+    /// Another unlocked element whose gap changed sign beyond the latch tolerance in this trial.
     fn crossed_by(&self, target: usize) -> Option<usize> {
-        let s = &self.state;
         crossed_unlatched(
             &self.model,
-            &|e| s.locked[e] || self.engaged(e),
+            &|e| super::impact::held(&self.state, &self.core, e),
             &self.state.x,
             &self.core.x,
             self.settings.lock_tol_m,
@@ -324,8 +291,7 @@ mod tests {
     use super::{crossed_unlatched, gap};
     use crate::model::generate::{self, MastParams};
 
-    /// The missed-latch check: a sleeve whose gap changed sign beyond the
-    /// tolerance is found unless it is locked, excepted, or within tolerance.
+    /// The missed-latch check finds a sleeve past its lock unless locked, excepted or within `tol`.
     #[test]
     fn a_sleeve_past_its_lock_is_found() {
         let text = generate::mast(&MastParams::default()).unwrap().to_toml();

@@ -1,18 +1,13 @@
-//! Stage `impact`: an element latches (docs/solver.md, Latches). Its rows
-//! join the constraint set and the velocities jump to the new manifold by
-//! the mass-orthogonal projection (an inelastic latch):
-//! V+ = V- - M^-1 A^T mu, mu = S^+ A V- the impulses, shared among redundant
-//! rows by least work; the kinetic energy lost is 1/2 mu . (A V-) per row.
-//! The mobility of the new set decides whether the truss is deployed.
+//! Stage `impact`: an element latches (docs/solver.md, Latches). Its rows join the constraint set
+//! and the velocities jump onto the new manifold by the mass-orthogonal projection (an inelastic
+//! latch): V+ = V- - M^-1 A^T mu, mu = S^+ A V- the impulses, shared among redundant rows by least
+//! work; the kinetic energy lost is 1/2 mu . (A V-) per row. The mobility of the new set decides
+//! whether the truss is deployed.
 //!
-//! A compliant latch engages instead as a spring-damper about its lock
-//! length, T = k (l - L) + c ldot (`crate::solver::springs`), with steps that
-//! resolve its period (`transient_step_s`); once settled it turns rigid: the
-//! joints move back onto the lock length by T/k, and its spring energy with
-//! the drive's work over that move go with the latch loss. With elastic
-//! members nothing moves: the sleeve's row, of compliance c = L/EA + 1/k,
-//! holds the deflection; a latch the structure cannot move along latches at
-//! once as that row (`retire_immobile_transients`).
+//! A compliant latch engages instead as a spring-damper about its lock length,
+//! T = k (l - L) + c ldot (`crate::solver::springs`), with steps that resolve its period
+//! (`transient_step_s`); once settled it turns rigid (`turn_rigid`). With elastic members the
+//! sleeve's row, of compliance c = L/EA + 1/k, then holds its deflection.
 
 use super::core::Core;
 use super::events::gap;
@@ -25,13 +20,11 @@ use crate::solver::state::{LatchTransient, LockEvent, State};
 use crate::solver::SolverError;
 
 impl Core {
-    /// The velocity jump onto the constraint manifold of the current pattern
-    /// at the trial (x, v), with every solve in `mode`: positions projected,
-    /// velocities projected (A V before in `r`, the impulses in `mu`), and the
-    /// accelerations after the jump (from `a_guess`). How the impulses are
-    /// shared among redundant rows is the mode's: `MinNorm` splits them by
-    /// least squares (simultaneous latches of redundant members are
-    /// statically indeterminate otherwise).
+    /// The velocity jump onto the constraint manifold of the current pattern at the trial (x, v),
+    /// every solve in `mode`: positions and velocities projected (A V before in `r`, the impulses
+    /// in `mu`), then the accelerations (from `a_guess`). `MinNorm` shares the impulses among
+    /// redundant rows by least squares (simultaneous latches of redundant members are otherwise
+    /// statically indeterminate).
     pub fn velocity_jump(
         &mut self,
         model: &Model,
@@ -50,14 +43,11 @@ impl Core {
         self.project_velocities(model, st, mode)?;
         self.consistent_accelerations(model, cmd, st)
     }
-}
 
-impl Core {
-    /// The velocity jump of elastic members: V <- V + dV, dV = M^-1 A^T lambda
-    /// with A (V + dV) + D lambda = 0, D = c / beta at the model's step (the
-    /// step's own compliance): the inelastic impulse of the rigid truss to
-    /// within D / S ~ 1e-5, and well posed at the flat state where the rigid
-    /// one is not. Impulses mu = -lambda (N s) in `mu`, A V before in `r`.
+    /// The velocity jump of elastic members: V <- V + dV, dV = M^-1 A^T lambda with
+    /// A (V + dV) + D lambda = 0, D = c / beta at the model's step: the rigid impulse to within
+    /// D / S ~ 1e-5, and well posed at the flat state (docs/solver.md, Elastic members).
+    /// Impulses mu = -lambda (N s) in `mu`, A V before in `r`.
     fn elastic_velocity_jump(&mut self, model: &Model) -> Result<(), SolverError> {
         self.jac.mul(&self.v, &mut self.r);
         self.q.fill(0.0);
@@ -86,10 +76,9 @@ impl Core {
 }
 
 impl Simulator {
-    /// Latches every lockable element at its lock (within the latch
-    /// tolerance): rigid latches by the inelastic velocity jump, recorded as
-    /// events; compliant ones engage as spring-dampers (their transient runs
-    /// in the following sub-steps). Returns how many latched or engaged.
+    /// Latches every lockable element within the latch tolerance of its lock: rigid latches by the
+    /// inelastic velocity jump, recorded as events; compliant ones engage as spring-dampers (their
+    /// transient runs in the following sub-steps). Returns how many latched or engaged.
     pub(super) fn latch(&mut self) -> Result<usize, SolverError> {
         let (model, st) = (&self.model, &self.settings);
         let newly: Vec<usize> = model
@@ -97,8 +86,7 @@ impl Simulator {
             .iter()
             .copied()
             .filter(|&e| {
-                !self.state.locked[e]
-                    && !self.engaged(e)
+                !held(&self.state, &self.core, e)
                     && gap(model, e, &self.state.x).abs() <= st.latch_tol_m()
             })
             .collect();
@@ -123,15 +111,11 @@ impl Simulator {
             }
         }
         self.share_one_mode_period();
-        // A compliant latch the structure cannot move along has no
-        // transient of its own. With elastic members it latches now as its
-        // row, the tube in series with the latch spring (compliance
-        // c = L/EA + 1/k, `latched_sleeve_compliance`): the row holds the
-        // sleeve at its lock length with the latch's stiffness whatever the
-        // others' transients do, as the engaged pin does. Rigid members: it
-        // waits for the others' transients (its rigid row would be redundant
-        // to first order with theirs meanwhile); with none engaging it
-        // latches rigid now.
+        // A compliant latch the structure cannot move along has no transient of its own. With
+        // elastic members it latches now as its row (c = L/EA + 1/k, `latched_sleeve_compliance`),
+        // which holds the sleeve at its lock with the latch's stiffness whatever the others'
+        // transients do. Rigid members: it waits for the others' transients (its rigid row would
+        // be redundant to first order with theirs meanwhile); with none engaging it latches rigid.
         if self.settings.elastic_members && !immobile.is_empty() {
             self.latch_rigid(&immobile, &|_| t)?;
             self.core.stats.latches += immobile.len() as u64;
@@ -139,7 +123,7 @@ impl Simulator {
             // (the transients it retires may be the last open sleeves)
             self.stamp_deploy_time();
             if !self.state.transients.is_empty() {
-                self.core.prev_h = None;
+                self.core.history.forget();
                 self.restart_accelerations()?;
             }
             self.track_latch_rows();
@@ -147,8 +131,7 @@ impl Simulator {
             self.core.stats.fallbacks.latch_without_compliance += immobile.len() as u64;
             self.latch_rigid(&immobile, &|_| t)?;
         } else {
-            // the side it came from: its gap at the sub-step's start (0:
-            // already at its lock there, unknown)
+            // the side it came from: its gap at the sub-step's start (0 if already at its lock)
             let tol = self.settings.latch_tol_m();
             for &e in &immobile {
                 let g0 = gap(&self.model, e, &self.x_start);
@@ -156,7 +139,7 @@ impl Simulator {
                 self.core.waiting.push((e, t, side));
             }
             // the dampers' force jumps in: accelerations from there
-            self.core.prev_h = None;
+            self.core.history.forget();
             self.restart_accelerations()?;
         }
         Ok(newly.len())
@@ -180,9 +163,8 @@ impl Simulator {
         Ok(())
     }
 
-    /// The waiting compliant latches once no transient is left: those still
-    /// at their lock latch rigid (at the instant they reached it), the others
-    /// are free again. Returns how many latched.
+    /// Once no transient is left, the waiting compliant latches still at their lock latch rigid (at
+    /// the instant they reached it); the others are free again. Returns how many latched.
     fn latch_waiting(&mut self) -> Result<usize, SolverError> {
         if !self.state.transients.is_empty() || self.core.waiting.is_empty() {
             return Ok(0);
@@ -212,11 +194,10 @@ impl Simulator {
         Ok(at_lock.len())
     }
 
-    /// Once deployed: the deploy time is the instant the last latch engaged
-    /// or reached its lock (compliant latches turn rigid later), also of a
-    /// latch after the truss turned rigid (near a singular configuration
-    /// the rank test finds it rigid while the last sleeves still close on
-    /// their locks by second-order motion and latch later).
+    /// Once deployed: the deploy time is the instant the last latch engaged or reached its lock
+    /// (compliant latches turn rigid later), also for a latch after the truss turned rigid (near
+    /// a singular configuration the rank test finds it rigid while the last sleeves still close
+    /// on their locks by second-order motion).
     fn stamp_deploy_time(&mut self) {
         let s = &mut self.state;
         if s.deployed {
@@ -229,12 +210,10 @@ impl Simulator {
         }
     }
 
-    /// Elastic members: a latched compliant latch (as its row at once, or
-    /// after its transient) carries the row's force, T = -lambda with
-    /// Phi + tau Phidot + c lambda = 0, c = L/EA + 1/k: the force through
-    /// tube and latch in series. Its event's peak force is the largest |T|
-    /// through it, over its transient and then at every state since its row
-    /// took over (called after every accepted sub-step and at its latch).
+    /// Elastic members: a latched compliant latch (as its row at once, or after its transient)
+    /// carries its row's force T = -lambda, Phi + tau Phidot + c lambda = 0, c = L/EA + 1/k. Its
+    /// event's peak force is the largest |T| through it over its transient and every state since
+    /// (called after every accepted sub-step and at its latch).
     pub(super) fn track_latch_rows(&mut self) {
         if !self.settings.elastic_members {
             return;
@@ -259,20 +238,11 @@ impl Simulator {
         }
     }
 
-    /// Whether a sleeve's compliant latch is engaged (its transient lasts)
-    /// or waits for the others' transients to end.
-    pub(super) fn engaged(&self, e: usize) -> bool {
-        engaging(&self.state, &self.core, e)
-    }
-
-    /// The mode a compliant latch of stiffness k across sleeve `e` makes
-    /// with the structure at the state: the inverse effective mass w along
-    /// the sleeve (every rigid constraint holding: at the current
-    /// factorization, or with elastic members from S + D factored at the
-    /// state, D = c_r / beta(dt_s), `Core::inverse_effective_mass`) and the
-    /// period 2 pi / sqrt(k w). None where the
-    /// structure cannot move along the sleeve: w below `latch_immobile_rel`
-    /// of its free two-joint value 1/m_a + 1/m_b (the spring would never
+    /// The mode a compliant latch of stiffness k across sleeve `e` makes with the structure at the
+    /// state: the inverse effective mass w along the sleeve (`Core::inverse_effective_mass`, every
+    /// rigid constraint holding; with elastic members on S + D, D = c_r / beta(dt_s)) and the
+    /// period 2 pi / sqrt(k w). None where the structure cannot move along the sleeve: w below
+    /// `latch_immobile_rel` of its free two-joint value 1/m_a + 1/m_b (the spring would never
     /// deflect nor settle).
     fn latch_mode(&mut self, e: usize, k: f64) -> Result<Option<(f64, f64)>, SolverError> {
         let model = &self.model;
@@ -286,14 +256,10 @@ impl Simulator {
         Ok(mobile.then_some((w, period_s)))
     }
 
-    /// A compliant latch engages at the state: its event (peak to come) and
-    /// transient, with the structure's effective mass along the sleeve
-    /// (`latch_mode`: every rigid constraint holding; with elastic members
-    /// solved on S + D factored at the state) for its period 2 pi / sqrt(k w). Returns false, engaging
-    /// nothing, where the structure cannot move along the sleeve (w below
-    /// `latch_immobile_rel` of its free value: its spring would never
-    /// deflect nor settle); the caller latches it rigid (a counted
-    /// fallback), after the transients of the others engaging with it.
+    /// A compliant latch engages at the state: its event (peak to come) and transient, of period
+    /// 2 pi / sqrt(k w) (`latch_mode`). Returns false, engaging nothing, where the structure
+    /// cannot move along the sleeve (w below `latch_immobile_rel` of its free value); the caller
+    /// latches it rigid (a counted fallback), after the transients of the others engaging with it.
     fn engage(&mut self, e: usize) -> Result<bool, SolverError> {
         let model = &self.model;
         let el = &model.elements[e];
@@ -307,8 +273,7 @@ impl Simulator {
         let el = &self.model.elements[e];
         let t = self.state.t_s;
         self.state.locks.push(LockEvent::new(e, el.name(), t, rate));
-        // (the gap is zero at engagement to the latch search's tolerance,
-        // `latch_tol_m`: the force there is the damper's, c ldot)
+        // (the gap is zero to `latch_tol_m` at engagement: the force is the damper's, c ldot)
         let force_n = c * rate;
         let sign = if rate >= 0.0 { 1.0 } else { -1.0 };
         self.state.transients.push(LatchTransient {
@@ -336,11 +301,9 @@ impl Simulator {
         Ok(true)
     }
 
-    /// Longest step that resolves the engaged compliant latches: a fraction
-    /// of the period 2 pi / sqrt(sum_i k_i w_i), w_i the inverse effective
-    /// mass along latch i. That bounds the fastest mode the latches make
-    /// together (Rayleigh: omega^2 = max_u sum_i k_i (J_i u)^2 / u^T M u
-    /// <= sum_i k_i w_i), and is a single latch's own period.
+    /// Longest step that resolves the engaged compliant latches: their period
+    /// (`spring_mode_period_s`) over `latch_steps_per_period`, or over
+    /// `latch_settle_steps_per_period` once every one has peaked.
     pub(super) fn transient_step_s(&self) -> f64 {
         let tr = &self.state.transients;
         if tr.is_empty() {
@@ -357,10 +320,9 @@ impl Simulator {
         self.spring_mode_period_s() / per_period
     }
 
-    /// Whether the engaged latches make one mode, of period 2 pi / sqrt(sum
-    /// k_i w_i): the rigid rows leave exactly one mechanism n (an SVD at the
-    /// state, up to `rank_check_max_coords`; the count kept in the state may
-    /// be a bound) and no compliant element adds stiffness along n.
+    /// Whether the engaged latches make one mode: the rigid rows leave exactly one mechanism n (an
+    /// SVD at the state, up to `rank_check_max_coords`; the state's count may be a bound) and no
+    /// compliant element adds stiffness along n.
     fn one_spring_mode(&mut self) -> bool {
         let n = self.model.n_coords();
         if self.core.element_springs.has_elements() || n > self.settings.rank_check_max_coords {
@@ -370,8 +332,7 @@ impl Simulator {
         crate::solver::rank::of_jacobian(&self.core.jac) + 1 == n
     }
 
-    /// Where the engaged latches make one mode (`one_spring_mode`), its
-    /// period is every transient's.
+    /// Where the engaged latches make one mode (`one_spring_mode`), it is every transient's period.
     fn share_one_mode_period(&mut self) {
         if !self.state.transients.is_empty() && self.one_spring_mode() {
             let one_mode_s = self.spring_mode_period_s();
@@ -381,9 +342,10 @@ impl Simulator {
         }
     }
 
-    /// 2 pi / sqrt(sum_i k_i w_i) over the engaged latches (s): the period
-    /// of the fastest mode they make together, bounded by Rayleigh, and of
-    /// their one mode on a structure with one mechanism.
+    /// 2 pi / sqrt(sum_i k_i w_i) over the engaged latches (s), w_i the inverse effective mass
+    /// along latch i: the bound on the period of the fastest mode they make together (Rayleigh:
+    /// omega^2 = max_u sum_i k_i (J_i u)^2 / u^T M u <= sum_i k_i w_i), a single latch's own
+    /// period, and that of their one mode on a structure with one mechanism.
     fn spring_mode_period_s(&self) -> f64 {
         let omega2: f64 = self
             .state
@@ -394,16 +356,13 @@ impl Simulator {
         2.0 * std::f64::consts::PI / omega2.sqrt()
     }
 
-    /// Turns rigid the compliant latches whose transient is over: over the
-    /// last period the force swung by at most `latch_settle_rel` of its
-    /// peak beyond its net change (max - min - |T_end - T_start|: a
-    /// vibration swings, a load the drive raises steadily does not), or
-    /// `latch_max_periods` have passed (a counted fallback). With elastic
-    /// members a latch whose force has not turned (no peak yet: it reached
-    /// its lock nearly at rest and the drive loads it steadily) settles on
-    /// the same swing test against its largest force in the window; its row
-    /// then carries the load and reports its force (`track_latch_rows`).
-    /// Returns how many turned rigid.
+    /// Turns rigid the compliant latches whose transient is over: over the last period the force
+    /// swung by at most `latch_settle_rel` of its peak beyond its net change, or
+    /// `latch_max_periods` have passed (`fallbacks.latch_unsettled`). With elastic members a latch
+    /// whose force has not turned (no peak yet: it reached its lock nearly at rest and the drive
+    /// loads it steadily) settles on the same test against its largest force in the window; its
+    /// row then carries the load and reports its force (`track_latch_rows`). Returns how many
+    /// turned rigid.
     pub(super) fn settle_transients(&mut self) -> Result<usize, SolverError> {
         if self.state.transients.is_empty() {
             return Ok(0);
@@ -413,16 +372,11 @@ impl Simulator {
         let mut due: Vec<usize> = Vec::new();
         for tr in &self.state.transients {
             let window_done = window_over(tr, t);
-            // (the window's spread less its net change: what the force
-            // swung beyond a steady change; a latch the drive loads
-            // steadily has none)
+            // the spread beyond the net change: a vibration swings, a steadily rising load does not
             let swing = tr.window_max_n
                 - tr.window_min_n
                 - (tr.sign * tr.force_n - tr.window_start_force_n).abs();
-            // (a force that has not turned: a sleeve that reached its lock
-            // at rest and that the drive loads steadily; with elastic
-            // members its row carries on what the drive adds and reports the
-            // force from then on, `track_latch_rows`)
+            // (no peak: a force that has not turned, see above)
             let calm = match self.state.locks[tr.event].peak_force_n {
                 Some(p) => swing <= st.latch_settle_rel * p,
                 None => st.elastic_members && swing <= st.latch_settle_rel * tr.window_max_n.abs(),
@@ -449,24 +403,19 @@ impl Simulator {
         }
         self.turn_rigid(&due, t)?;
         let mut turned = due.len();
-        // Elastic members: the latches turning rigid may leave the structure
-        // unable to move along those still engaged; their transients end
-        // there, as their rows (`retire_immobile_transients`).
+        // Elastic members: those may leave others immobile (`retire_immobile_transients`).
         turned += self.retire_immobile_transients()?;
-        // (the waiting latches' events first: they may have reached their
-        // lock after the last engagement)
+        // (the waiting latches before the stamp: they may have reached their lock last)
         let waited = self.latch_waiting()?;
         self.stamp_deploy_time();
         Ok(turned + waited)
     }
 
-    /// Turns the engaged compliant latches `due` rigid at the state (time
-    /// t): their force impulse and dissipation, and the elastic energy
-    /// 1/2 k g^2 their springs release, go with their events; the
-    /// velocities jump onto the new constraint set (`lock_rigidly`).
+    /// Turns the engaged compliant latches `due` rigid at the state (time t): each one's force
+    /// impulse and dissipation, and the elastic energy 1/2 k g^2 its spring releases, go with its
+    /// event; the velocities jump onto the new constraint set (`lock_rigidly`).
     fn turn_rigid(&mut self, due: &[usize], t: f64) -> Result<(), SolverError> {
-        // per latch: the force impulse and dissipation of its transient, and
-        // the elastic energy 1/2 k g^2 it releases turning rigid
+        // per latch: event, sign, force impulse, dissipation plus released spring energy
         let mut settled: Vec<(usize, f64, f64, f64)> = Vec::with_capacity(due.len());
         for tr in self
             .state
@@ -478,10 +427,9 @@ impl Simulator {
             let k = tr.stiffness_n_per_m;
             let spring_j = 0.5 * k * g * g;
             self.state.energy.latch_spring_energy_j -= spring_j;
-            // Elastic members: the sleeve's row holds its deflection g at
-            // compliance c = L/EA + 1/k (`Core::set_compliance`), strain
-            // 1/2 g^2/c; what the tube's own compliance takes off the
-            // spring's energy is the latch's loss. Rigid: all of it.
+            // Elastic members: the sleeve's row holds its deflection g at c = L/EA + 1/k
+            // (`Core::set_compliance`), strain 1/2 g^2/c; the rest of the spring's energy is the
+            // latch's loss. Rigid: all of it.
             let held_j = if self.settings.elastic_members {
                 0.5 * g * g / super::core::latched_sleeve_compliance(&self.model, tr.element)
             } else {
@@ -501,8 +449,7 @@ impl Simulator {
             settled.into_iter().zip(jumps)
         {
             let ev = &mut self.state.locks[event];
-            // the force integral and the jump's impulse are both signed
-            // tension positive; reported as a magnitude (the engaging sign)
+            // both signed tension positive; reported as a magnitude (times the engaging sign)
             ev.impulse_ns = sign * (impulse_ns + impulse);
             ev.energy_lost_j = lost_j + lost;
             ev.rigid_at_s = Some(t);
@@ -510,23 +457,18 @@ impl Simulator {
         Ok(())
     }
 
-    /// Elastic members, with compliant latches engaged: those the structure
-    /// can no longer move along (inverse effective mass w at the state
-    /// below `latch_immobile_rel` of its free value, as at `engage`), since
-    /// other latches turned rigid or latched as rows, have no mode left to
-    /// settle in (their period 2 pi / sqrt(k w) has grown without bound):
-    /// they turn rigid now as their rows, c = L/EA + 1/k, which hold the
-    /// sleeve with the latch spring in series. The others' w and period are
-    /// those of the structure as it now is. Repeated until none turns (each
-    /// row may immobilize others). Returns how many turned.
+    /// Elastic members, with compliant latches engaged: those the structure can no longer move
+    /// along since other latches turned rigid or latched as rows (w below `latch_immobile_rel` of
+    /// its free value, as at `engage`) have no mode left to settle in: they turn rigid now as
+    /// their rows, c = L/EA + 1/k. The others take the structure's new w and period. Repeated
+    /// until none turns (each row may immobilize others). Returns how many turned.
     pub(super) fn retire_immobile_transients(&mut self) -> Result<usize, SolverError> {
         if !self.settings.elastic_members {
             return Ok(0);
         }
         let mut turned = 0;
         while !self.state.transients.is_empty() {
-            // (w solved on S + D factored at the state: elastic members
-            // only reach here)
+            // (elastic members only: w solved on S + D factored at the state)
             let mut immobile = Vec::new();
             for i in 0..self.state.transients.len() {
                 let (e, k) = {
@@ -542,8 +484,7 @@ impl Simulator {
                     }
                 }
             }
-            // (the solves above used the core's accelerations and
-            // multipliers as scratch: the state's again)
+            // (the solves above used the core's `a` and `lambda` as scratch: the state's again)
             self.core.a.copy_from_slice(&self.state.a);
             self.core.lambda.clone_from(&self.state.lambda);
             if immobile.is_empty() {
@@ -557,13 +498,11 @@ impl Simulator {
         Ok(turned)
     }
 
-    /// Makes `elements` rigid members (locked) at the current state: the
-    /// velocity jump onto the new constraint set, the impulses split by least
-    /// work, the kinetic energy taken and the drive's work over the
-    /// projection's move booked as latch loss, and the deployed state
-    /// decided. Returns per element its impulse (N s, signed: positive where
-    /// the element pulls its joints together, the multiplier's sign), the
-    /// energy it took (J) and its closing rate before (m/s).
+    /// Makes `elements` rigid members (locked) at the current state: the velocity jump onto the
+    /// new constraint set, impulses split by least work, the kinetic energy taken and the drive's
+    /// work over the projection's move booked as latch loss, and the deployed state decided.
+    /// Returns per element its impulse (N s, the multiplier's sign: positive where the element
+    /// pulls its joints together), the energy it took (J) and its closing rate before (m/s).
     fn lock_rigidly(&mut self, elements: &[usize]) -> Result<Vec<(f64, f64, f64)>, SolverError> {
         self.motors_release_for_impact();
         let (model, st) = (&self.model, &self.settings);
@@ -571,14 +510,13 @@ impl Simulator {
             self.state.locked[e] = true;
         }
         let core = &mut self.core;
-        core.prev_h = None;
+        core.history.forget();
         core.set_pattern(model, &self.state.locked);
         core.x.copy_from_slice(&self.state.x);
         core.v.copy_from_slice(&self.state.v);
         core.a_guess.copy_from_slice(&self.state.a);
-        // Least squares through the latch: a truss that latches into its flat
-        // deployed state has rows only nearly redundant there, on which basic
-        // solves are ill-conditioned.
+        // Least squares through the latch: latching into the flat deployed state leaves rows only
+        // nearly redundant, on which basic solves are ill-conditioned.
         core.velocity_jump(
             model,
             st,
@@ -592,8 +530,7 @@ impl Simulator {
             .iter()
             .filter(|&&e| model.elements[e].latch_spring().is_none())
             .count() as u64;
-        // Impulses: the joint impulses of the jump, M (V- - V+) = A^T P, split
-        // among the rows by least work.
+        // Impulses: the jump's joint impulses M (V- - V+) = A^T P, split among rows by least work.
         for i in 0..core.dx.len() {
             core.dx[i] = model.mass[i] * (self.state.v[i] - core.v[i]);
         }
@@ -608,10 +545,9 @@ impl Simulator {
             })
             .collect();
         let s = &mut self.state;
-        // The projection moves the joints onto the lock length: by roundoff
-        // for a rigid latch found by the root search, by the deflection T/k
-        // for a compliant one turning rigid. That move takes no time, so the
-        // work the drive and gravity do over it goes with the latch's loss.
+        // The projection moves the joints onto the lock length (by roundoff after the root search,
+        // by the deflection T/k for a compliant latch turning rigid) in no time: the drive's and
+        // gravity's work over that move goes with the latch's loss.
         let moved_j = super::ledger::book_drive_work(
             model,
             &mut s.energy,
@@ -629,12 +565,10 @@ impl Simulator {
         let ke_after = s.kinetic_energy_j(model);
         s.energy.lock_loss_j += ke_before - ke_after + moved_j - elastic_j;
         self.state.mechanisms = self.mechanisms_now();
-        // Rigid before every element latched: trusted from an SVD only (the
-        // dense solver's, or one confirming a pivot rank; not past
-        // `rank_check_max_coords`). Once every element has latched the truss
-        // is deployed whatever the count, and the SVD (~4 % of a ring's whole
-        // deployment) is skipped.
-        // (elastic members move on where the rigid truss has no mechanism)
+        // Rigid before every element latched: trusted from an SVD only (the dense solver's, or one
+        // confirming a pivot rank; not past `rank_check_max_coords`). Once every element has
+        // latched the truss is deployed whatever the count, and the SVD (~4 % of a ring's
+        // deployment) is skipped. Elastic members move on where the rigid truss has no mechanism.
         let deployed = self.all_locked()
             || (self.state.mechanisms == 0
                 && !self.settings.elastic_members
@@ -649,10 +583,12 @@ impl Simulator {
     }
 }
 
-/// Whether a sleeve's compliant latch is engaged (its transient lasts) or
-/// waits for the others' to end.
-pub(super) fn engaging(s: &State, core: &Core, e: usize) -> bool {
-    s.transients.iter().any(|t| t.element == e) || core.waiting.iter().any(|w| w.0 == e)
+/// Whether a sleeve is held at its lock: latched, or its compliant latch
+/// engaged (its transient lasts) or waiting for the others' to end.
+pub(super) fn held(s: &State, core: &Core, e: usize) -> bool {
+    s.locked[e]
+        || s.transients.iter().any(|t| t.element == e)
+        || core.waiting.iter().any(|w| w.0 == e)
 }
 
 /// Whether a transient's current window of one period has ended at `t` (to

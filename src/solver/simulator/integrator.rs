@@ -1,13 +1,11 @@
-//! Stage `integrator`: Newmark average-acceleration integration of one trial
-//! step and its convergence policy.
+//! Stage `integrator`: one Newmark trial step and its convergence policy.
 //!
-//! One step of length h from (X_n, V_n, A_n):
 //!   X_{n+1} = X_n + h V_n + h^2/4 (A_n + A_{n+1}),   V_{n+1} = V_n + h/2 (A_n + A_{n+1}),
-//! with A_{n+1} the constrained acceleration at (X_{n+1}, V_{n+1}), found by
-//! fixed-point iteration (each iterate is one constrained solve), then
-//! projected (stage `projection`). Also here: the applied forces Q (cables,
-//! damping, gravity) and the accelerations consistent with a state where a
-//! step starts from scratch.
+//!
+//! A_{n+1} the constrained acceleration at (X_{n+1}, V_{n+1}) by fixed-point
+//! iteration (one constrained solve per iterate), then projected (stage
+//! `projection`; elastic members: nothing projected). Also the applied
+//! forces Q and the consistent accelerations of a state.
 
 use super::core::{Core, MEMBER_PIN};
 use crate::solver::cable;
@@ -18,9 +16,8 @@ use crate::solver::state::State;
 use crate::solver::SolverError;
 
 impl Core {
-    /// Applied forces Q at the trial (x, v): cables, compliant elements and
-    /// latches, damping, gravity. The cable
-    /// inertia term uses `a_guess` as the acceleration estimate.
+    /// Applied forces Q at the trial (x, v): cables (inertia from `a_guess`),
+    /// compliant elements and latches, damping, gravity.
     fn applied_forces(&mut self, model: &Model, cmd: &[f64]) {
         self.q.fill(0.0);
         for (ci, c) in model.cables.iter().enumerate() {
@@ -30,8 +27,7 @@ impl Core {
                 None
             };
             if self.motor_tracks(ci) {
-                // (a speed-controlled motor's tension is solved for:
-                // `motor_tensions`)
+                // (its tension is solved for: `motor_tensions`)
                 let sliding = std::mem::take(&mut self.friction_sliding[ci]);
                 let dir = self.lagged_friction.then_some(sliding.as_slice());
                 self.motor_unit_forces(model, ci, dir);
@@ -49,8 +45,7 @@ impl Core {
             );
             cable::add_forces(c, &self.cables[ci], &self.x, &mut self.q);
         }
-        // Compliant elements and engaged compliant latches:
-        // -A^T (k Phi + c A Xdot).
+        // compliant elements and latches: -A^T (k Phi + c A Xdot)
         self.element_springs
             .add_forces(model, &self.x, &self.v, &mut self.q);
         let g = model.gravity_m_s2;
@@ -74,18 +69,16 @@ impl Core {
     ) -> Result<(), SolverError> {
         if let Some(mode) = refactor {
             if self.compliant.is_some() {
-                // (compliant solves factor S + D themselves)
-                self.jac.fill(model, &self.x);
+                self.jac.fill(model, &self.x); // (S + D factored by the solve)
             } else {
                 self.factor(model, mode)?;
             }
         }
         self.applied_forces(model, cmd);
         if let Some((h, true)) = self.compliant {
-            // Index 3: Phi(X) + tau A V + c lambda = 0 at X, V of A
-            // linearized at the iterate A_g (X, V move by beta h^2 and
-            // gamma h per unit A, `StepGains`): b A (A - A_g) + Phi + tau A V
-            // + c lambda = 0 with b = beta h^2 + tau gamma h, i.e.
+            // Index 3: Phi + tau A V + c lambda = 0 at the X, V of A,
+            // linearized at the iterate A_g: b A (A - A_g) + Phi + tau A V
+            // + c lambda = 0, b = beta h^2 + tau gamma h, so
             // A A + D lambda = -((Phi + tau A V) / b - A A_g).
             self.jac.residual(model, &self.x, &mut self.row_phi);
             self.jac.mul(&self.v, &mut self.row_rate);
@@ -119,11 +112,9 @@ impl Core {
     }
 
     /// Constrained accelerations at the trial (x, v) from a current
-    /// factorization, where nothing better than `a_guess` is known of them (the
-    /// start, a latch, a command change). Cables with mass take their inertia
-    /// term from `a_guess`: the evaluation is repeated to its fixed point (a
-    /// contraction like the Newmark iteration's); stopping at the iteration
-    /// limit is a counted fallback.
+    /// factorization, from scratch (start, latch, command change). Cables with
+    /// mass take their inertia from `a_guess`: repeated to the fixed point
+    /// (`consistent_unconverged` at the limit).
     pub fn consistent_accelerations(
         &mut self,
         model: &Model,
@@ -133,7 +124,6 @@ impl Core {
         if st.elastic_members {
             self.compliant = Some((model.dt_s, false));
             self.restart_substeps_left = st.restart_substeps;
-            // (the blend entry after them is judged from this restart)
             self.blend_start_held = false;
         }
         let result = self.consistent_fixed_point(model, cmd, st);
@@ -170,8 +160,8 @@ impl Core {
         Ok(())
     }
 
-    /// One Newmark step of length h from `s` into the trial state, with solves
-    /// in `base` mode (escalated to least squares where the iteration stalls).
+    /// One Newmark step of length h from `s` into the trial state, solves in
+    /// `base` mode.
     pub fn newmark(
         &mut self,
         model: &Model,
@@ -182,30 +172,24 @@ impl Core {
     ) -> Result<(), SolverError> {
         self.stats.newmark_steps += 1;
         let cmd = &s.cable_tension_cmd_n;
-        // Predictor: A_{n+1} extrapolated from the last step starts, by the
-        // candidate (`Predictor`) that would have predicted A_n best: quadratic
-        // in A for smooth motion, quadratic in V (A_n + A_{n-1} - A_{n-2}) for
-        // a stiff damped mode whose A alternates in sign from step to step
-        // (a pulley stuck inside its friction blend), linear along each
-        // parity for such a mode whose amplitude drifts (docs/solver.md,
-        // Predictor). Only the iteration's start changes, not its result.
+        // Predictor: the candidate that would have predicted A_n best
+        // (docs/solver.md, Predictor); only the iteration's start changes.
         let best = self.predictor(model, s, h);
+        let [p1, p2, p3, _] = &self.history.a;
         for i in 0..self.a_guess.len() {
             let a = s.a[i];
             self.a_guess[i] = match best {
                 Predictor::Constant => a,
-                Predictor::Linear => 2.0 * a - self.a_prev[i],
-                Predictor::Alternation => self.a_prev[i],
-                Predictor::Smooth => 3.0 * a - 3.0 * self.a_prev[i] + self.a_prev2[i],
-                Predictor::Ringing => a + self.a_prev[i] - self.a_prev2[i],
-                Predictor::Parity => 2.0 * self.a_prev[i] - self.a_prev3[i],
+                Predictor::Linear => 2.0 * a - p1[i],
+                Predictor::Alternation => p1[i],
+                Predictor::Smooth => 3.0 * a - 3.0 * p1[i] + p2[i],
+                Predictor::Ringing => a + p1[i] - p2[i],
+                Predictor::Parity => 2.0 * p1[i] - p3[i],
             };
         }
-        // Viscous damping C (diagonal) is taken implicitly: with
-        // V_{n+1} = V* + gamma h A_{n+1}, V* = V_n + (1 - gamma) h A_n, the
-        // damping force -C V_{n+1} moves to the left:
-        // (M + gamma h C) A_{n+1} = Q - C V* + A^T lambda. The fixed-point
-        // iteration then contracts however stiff the damping is.
+        // Damping implicit: V_{n+1} = V* + gamma h A_{n+1}, V* = V_n +
+        // (1 - gamma) h A_n, so (M + gamma h C) A_{n+1} = Q - C V* + A^T lambda,
+        // contracting however stiff the damping.
         let c_damp = model.damping_n_s_per_m;
         let gains = self.step_gains(h);
         for (w, m) in self.inv_mass_eff.iter_mut().zip(&model.mass) {
@@ -225,7 +209,6 @@ impl Core {
         }
         let motors = self.motor.any_tracking();
         if motors {
-            // (the lengths they hold at the trial's end)
             self.motor.set_targets(s, h);
         }
         if st.elastic_members {
@@ -251,24 +234,18 @@ impl Core {
         if motors {
             self.project_motor_velocities(model)?;
         }
-        // A_{n+1} (and the segment tensions the energy ledger books) under the
-        // friction directions the iteration converged with: evaluated with the
-        // current directions instead, a pulley sliding slower than its slip
-        // speed gets a friction force the step never applied, so the next
-        // step starts from accelerations inconsistent with this one (the
-        // rerouted-cable ring booked a balance error of 6.5e-2 by t = 0.1 s).
+        // A_{n+1} and the segment tensions under the friction directions the
+        // iteration converged with: with the current ones a pulley slower than
+        // its slip speed gets a force the step never applied.
         self.lagged_friction = lagged;
         let result = self.accelerations(model, cmd, None);
         self.lagged_friction = false;
         result
     }
 
-    /// The end of an elastic-member step: the iteration left X_{n+1},
-    /// V_{n+1} with Phi + tau A V + c lambda = 0 (and the tracking motors'
-    /// e + tau edot = 0, e = L(X_{n+1}) - L_target) and A_{n+1}, lambda
-    /// consistent with them; nothing is projected. The violation reported
-    /// is what is left of the rows' equation and the motors' miss |e|; the
-    /// members' strain energy and dampers' rate are read for the ledger.
+    /// The end of an elastic-member step (nothing projected): the violation
+    /// is what is left of Phi + tau A V + c lambda = 0 and of the motors'
+    /// |L - L_target|; strain energy and member forces for the ledger.
     fn elastic_finish(&mut self, model: &Model) {
         self.jac.fill(model, &self.x);
         let (strain, worst) = self.elastic_readings(model);
@@ -277,22 +254,21 @@ impl Core {
         self.jac.mul_t(&self.lambda, &mut self.member_force_trial);
     }
 
-    /// The predictor of A_{n+1} for a step of length h from `s` (see
-    /// `newmark`): each candidate judged by its back-test, the kinetic norm
-    /// of what it would have predicted for A_n less A_n, where the history
-    /// of step starts (a_prev = A_{n-1}, a_prev2 = A_{n-2}, ...) allows it.
+    /// The predictor of A_{n+1} for a step h from `s`: each candidate judged
+    /// by the kinetic norm of its miss of A_n, where the history allows it.
     fn predictor(&self, model: &Model, s: &State, h: f64) -> Predictor {
         let miss = |predicted: &dyn Fn(usize) -> f64| -> f64 {
             (0..s.a.len())
                 .map(|i| model.mass[i] * (predicted(i) - s.a[i]).powi(2))
                 .sum()
         };
-        let (p1, p2, p3, p4) = (&self.a_prev, &self.a_prev2, &self.a_prev3, &self.a_prev4);
-        let equal = |prev: Option<f64>| prev == Some(h);
-        if equal(self.prev_h) && equal(self.prev_h2) && equal(self.prev_h3) {
+        let [p1, p2, p3, p4] = &self.history.a;
+        let prev = &self.history.h;
+        let equal = |k: usize| prev[k] == Some(h);
+        if equal(0) && equal(1) && equal(2) {
             let smooth = miss(&|i| 3.0 * p1[i] - 3.0 * p2[i] + p3[i]);
             let ring = miss(&|i| p1[i] + p2[i] - p3[i]);
-            let parity = if equal(self.prev_h4) {
+            let parity = if equal(3) {
                 miss(&|i| 2.0 * p2[i] - p4[i])
             } else {
                 f64::INFINITY
@@ -305,7 +281,7 @@ impl Core {
                 Predictor::Smooth
             };
         }
-        if equal(self.prev_h) && equal(self.prev_h2) {
+        if equal(0) && equal(1) {
             let linear = miss(&|i| 2.0 * p1[i] - p2[i]);
             let alternation = miss(&|i| p2[i]);
             return if alternation < linear {
@@ -314,24 +290,20 @@ impl Core {
                 Predictor::Linear
             };
         }
-        // (after a change of h: the alternation holds for the ringing mode
-        // whatever the step lengths, since its V stays put; it is judged
-        // against the constant guess, the linear extrapolation's own
-        // back-test having no meaning across the change)
-        if self.prev_h.is_some() && self.prev_h2.is_some() && miss(&|i| p2[i]) < miss(&|i| p1[i]) {
+        // (after a change of h only the alternation, whose V stays put,
+        // against the constant guess)
+        if prev[0].is_some() && prev[1].is_some() && miss(&|i| p2[i]) < miss(&|i| p1[i]) {
             Predictor::Alternation
-        } else if equal(self.prev_h) {
+        } else if equal(0) {
             Predictor::Linear
         } else {
             Predictor::Constant
         }
     }
 
-    /// The trial (x, v) from the step start `s` and A_{n+1} = `a_guess`:
+    /// The trial (x, v) from `s` and A_{n+1} = `a_guess`:
     /// X_{n+1} = X_n + h V_n + h^2 ((1/2 - beta) A_n + beta A_{n+1}),
-    /// V_{n+1} = V_n + h ((1 - gamma) A_n + gamma A_{n+1}) (`StepGains`;
-    /// the average-acceleration rule's beta = 1/4, gamma = 1/2:
-    /// X_n + h V_n + h^2/4 (A_n + A_{n+1}), V_n + h/2 (A_n + A_{n+1})).
+    /// V_{n+1} = V_n + h ((1 - gamma) A_n + gamma A_{n+1}).
     fn newmark_update(&mut self, s: &State, h: f64) {
         if self.backward_euler {
             // (beta = 1/2, gamma = 1: A_n drops out)
@@ -350,16 +322,12 @@ impl Core {
         }
     }
 
-    /// The fixed-point iteration of A_{n+1} (converged value in `a_guess`;
-    /// docs/solver.md, Integration). Converged where the error estimate
-    /// min(safety rho / (1 - rho), 1) |change| is within tolerance: one ratio
-    /// of successive changes underestimates the contraction rate rho (by up to
-    /// 13x on the bundled models), hence `newmark_rho_safety`. Where the
-    /// friction blend or a stiff spring keeps the map from contracting, it
-    /// goes on with Newton steps (stage `newton`; the same equations). A
-    /// stall restarts with least-squares solves (basic ones make a less
-    /// contractive map off the manifold), then with the friction direction of
-    /// the step start (an iteration cycling across a blend): counted fallbacks.
+    /// The fixed-point iteration of A_{n+1} into `a_guess` (docs/solver.md,
+    /// Integration): converged where min(safety rho / (1 - rho), 1) |change|
+    /// is within tolerance (`newmark_rho_safety`). Where the friction blend or
+    /// a stiff spring keeps the map from contracting: Newton steps (stage
+    /// `newton`). A stall restarts with least-squares solves, then with the
+    /// step start's friction direction (counted fallbacks).
     fn newmark_iterate(
         &mut self,
         model: &Model,
@@ -393,23 +361,21 @@ impl Core {
                 change = change.max((self.a[i] - self.a_guess[i]).abs());
                 scale = scale.max(self.a[i].abs());
             }
-            // (rho is 0 after the first iterate, whose last change is
-            // infinite; Newton iterates do not contract geometrically: their
-            // error is taken as the change)
+            // (rho is 0 after the first iterate; a Newton iterate's error is
+            // its change)
             let rho = change / last_change;
             let error = if !newton && rho > 0.0 && rho < st.newmark_rho_max {
                 (st.newmark_rho_safety * rho / (1.0 - rho) * change).min(change)
             } else {
                 change
             };
-            // (position per unit A per h^2: beta, 1/4 or 1/2 backward-Euler)
+            // (beta: position per unit A per h^2)
             let per_a = self.step_gains(1.0).position_s2;
             if error <= st.newmark_tol_rel * scale
                 || per_a * error * h * h <= st.newmark_tol_position_m
             {
                 self.a_guess.copy_from_slice(&self.a);
-                // (only where the blend was stiff: a Newton switch at a stall
-                // of another origin changes no step length)
+                // (only where the blend was stiff)
                 self.blend_entry = tried_newton
                     && newton_for_friction
                     && self.newton.gain >= 1.0
@@ -421,10 +387,8 @@ impl Core {
                 if self.newton_advance(model, h, st)? {
                     continue;
                 }
-                // (the line search failed: once more with the friction's
-                // secant slopes where it steered the Newton steps, else on
-                // with the plain iteration from the best iterate, and its
-                // stall fallbacks)
+                // (the line search failed: once with the friction's secant
+                // slopes, else the plain iteration from the best iterate)
                 self.stats.fallbacks.newmark_newton_failed += 1;
                 newton = false;
                 self.newton_best();
@@ -438,11 +402,8 @@ impl Core {
                 continue;
             }
             // Newton where the friction blend or a stiff compliant element
-            // (its row gain at h, `ElementSprings::max_gain`) is what keeps
-            // the iteration from contracting (not a stall at the roundoff
-            // floor of the solves: that is the least-squares restart's)
-            // (from the first iterate where the last Newmark step needed
-            // Newton: the plain iterates would run off to a saturated side)
+            // (`ElementSprings::max_gain`) keeps the map from contracting;
+            // from the first iterate if the last step needed it
             let stiff = (rho >= st.newmark_newton_trigger || self.newton_last || restart_newton)
                 && !self.lagged_friction
                 && (!tried_newton || restart_newton);
@@ -467,8 +428,7 @@ impl Core {
                 0
             };
             last_change = change;
-            // (no progress on the best iterate so far also catches a cycle whose
-            // change alternates up and down)
+            // (no progress on the best iterate: a cycle)
             no_progress = if change >= st.newmark_stall_ratio * best_change {
                 no_progress + 1
             } else {
@@ -494,6 +454,46 @@ impl Core {
         }
         self.newton_last = false;
         Err(SolverError::NoConvergence { t_s: s.t_s + h })
+    }
+}
+
+/// The accelerations at the starts of the last accepted sub-steps, newest
+/// first (A_{n-1} .. A_{n-4}), and those sub-steps' lengths (None: no
+/// extrapolation across a velocity jump, a latch or a reset).
+pub(super) struct AccelHistory {
+    pub a: [Vec<f64>; 4],
+    pub h: [Option<f64>; 4],
+}
+
+impl AccelHistory {
+    pub fn new(n: usize) -> AccelHistory {
+        AccelHistory {
+            a: std::array::from_fn(|_| vec![0.0; n]),
+            h: [None; 4],
+        }
+    }
+
+    /// After an accepted sub-step of length h that started from `a`.
+    pub fn push(&mut self, a: &[f64], h: f64) {
+        self.a.rotate_right(1);
+        self.h.rotate_right(1);
+        self.a[0].copy_from_slice(a);
+        self.h[0] = Some(h);
+    }
+
+    /// No extrapolation across what just happened.
+    pub fn forget(&mut self) {
+        self.h[0] = None;
+    }
+
+    /// A command's jump of the accelerations from `before` to `after`,
+    /// which persists: every entry shifted by it.
+    pub fn shift(&mut self, before: &[f64], after: &[f64]) {
+        for a in &mut self.a {
+            for ((a, b), c) in a.iter_mut().zip(before).zip(after) {
+                *a += c - b;
+            }
+        }
     }
 }
 

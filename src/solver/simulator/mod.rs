@@ -12,16 +12,11 @@
 //!                motor::motors_after_substep (release, engage)
 //! ```
 //!
-//! Compliant elements and engaged compliant latches (`crate::solver::springs`)
-//! add their forces in the integrator and their energy in the ledger. With elastic members
-//! (`SolverSettings::elastic_members`) the Newmark iteration holds
-//! Phi + tau Phidot + c lambda = 0 itself and nothing is projected.
-//!
-//! `core` holds the buffers, the Jacobian, the backend and the counters;
-//! every numeric policy comes from the model's [`SolverSettings`], passed to
-//! each stage. Cable commands are piecewise constant with jumps at step
-//! starts: a step that starts at a change starts from the accelerations under
-//! the new command.
+//! Compliant elements and latches (`crate::solver::springs`) add their forces
+//! in the integrator and their energy in the ledger. With elastic members the
+//! Newmark iteration holds Phi + tau Phidot + c lambda = 0 and nothing is
+//! projected. `core` holds the buffers, the Jacobian, the backend and the
+//! counters; every numeric policy is the model's [`SolverSettings`].
 
 mod core;
 mod events;
@@ -45,24 +40,16 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 use std::time::Instant;
 
-/// How to run a model: the backend. Every numeric setting is the model's
-/// ([`Model::solver`], from the model file's `[solver]` table).
-#[derive(Clone, Debug)]
+/// How to run a model: the backend (sparse by default). Every numeric
+/// setting is the model's ([`Model::solver`], the model file's `[solver]`).
+#[derive(Clone, Debug, Default)]
 pub struct Options {
     pub solver: SolverKind,
 }
 
-impl Default for Options {
-    fn default() -> Self {
-        Options {
-            solver: SolverKind::Sparse,
-        }
-    }
-}
-
 /// When a step gives up before its end (`SolverError::Stopped`), checked
-/// before every sub-step: a step near a singular state can take thousands of
-/// sub-steps, and a caller's wall limit or signal must not wait for them.
+/// before every sub-step: a caller's wall limit or signal does not wait for
+/// the thousands of sub-steps a step near a singular state can take.
 #[derive(Clone, Debug, Default)]
 pub struct StepLimits {
     /// The wall-clock instant past which no sub-step starts.
@@ -104,12 +91,10 @@ pub struct Simulator {
     /// start (the missed-latch check).
     interp: Vec<f64>,
     x_start: Vec<f64>,
-    /// The drive's work to the reference geometry
-    /// (`Model::drive_work_to_reference_j`): the ledger budget's scale
+    /// The drive's work to the reference geometry: the ledger budget's scale
     /// before the run's own energy grows to it.
     drive_work_ref_j: f64,
-    /// The last trial that made energy and was halved: its length and miss
-    /// (s, J), for the halvings below the shortest sub-step (`trial_ledger`).
+    /// The last trial that made energy and was halved, (h s, miss J).
     made_energy_halved: Option<(f64, f64)>,
     /// The caller's limits on a step's wall time.
     limits: StepLimits,
@@ -141,9 +126,8 @@ impl Simulator {
         Ok(sim)
     }
 
-    /// Puts the state at t = 0: checks the initial geometry, settles it to
-    /// roundoff, latches elements that start at their lock, and computes the
-    /// consistent initial accelerations and mobility.
+    /// The state at t = 0: the initial geometry checked and settled to
+    /// roundoff, elements at their lock latched, consistent accelerations.
     fn initialize(&mut self) -> Result<(), SolverError> {
         let (model, st) = (&self.model, &self.settings);
         let mut state = State::at_rest(model);
@@ -151,10 +135,9 @@ impl Simulator {
             state.locked[e] = gap(model, e, &model.x0).abs() <= st.lock_tol_m;
         }
         let core = &mut self.core;
-        core.prev_h = None;
+        core.history.forget();
         core.backward_euler = false;
         core.blend_start_held = false;
-        // (a reset in a compliant latch's transient: its spring goes with it)
         core.element_springs.release_latches(None);
         core.waiting.clear();
         core.motor.take_modes(&state);
@@ -215,15 +198,12 @@ impl Simulator {
         self.core.solver.diagnostics()
     }
 
-    /// The state's multipliers (member forces, N, row order of the current
-    /// Jacobian; a bar's multiplier is minus its tension) with redundant
-    /// rows sharing by least work: among all multipliers with the state's
-    /// joint forces A^T lambda, the one minimizing sum L_i/(EA_i) lambda_i^2
-    /// (`crate::solver::least_work`). Solver-independent (the sparse
-    /// backend's `State::lambda` gives the whole share to the rows it keeps);
-    /// two least-squares solves with a backend of its own, so the trajectory
-    /// does not depend on how often it is called (the node calls it at its
-    /// publish rate).
+    /// The state's multipliers (member forces, N, in the Jacobian's row order;
+    /// a bar's is minus its tension) shared among redundant rows by least
+    /// work: of all with the state's joint forces A^T lambda, the one
+    /// minimizing sum L_i/(EA_i) lambda_i^2 (`crate::solver::least_work`).
+    /// On a backend of its own: the trajectory does not depend on how often
+    /// it is called.
     pub fn least_work_multipliers(&mut self) -> Result<Vec<f64>, SolverError> {
         let (model, core, s) = (&self.model, &mut self.core, &self.state);
         core.least_work_multipliers(model, self.opts.solver, &s.x, &s.lambda)?;
@@ -241,9 +221,8 @@ impl Simulator {
             .map(|t| t.force_n)
     }
 
-    /// Sets when a step gives up early (`SolverError::Stopped`, the state
-    /// left at its last accepted sub-step): a wall-clock deadline, a cancel
-    /// flag. None by default.
+    /// Sets when a step gives up early (`SolverError::Stopped`, the state at
+    /// its last accepted sub-step): a deadline, a cancel flag.
     pub fn set_step_limits(&mut self, limits: StepLimits) {
         self.limits = limits;
     }
@@ -272,12 +251,9 @@ impl Simulator {
         Ok(())
     }
 
-    /// Accelerations (and multipliers, cable tensions) of the state under the
-    /// current commands. The tension is piecewise constant in time with its
-    /// jumps at step starts, so a step that starts at a command change must
-    /// start from A(t_n+) under the new command; Newmark from the old A_n
-    /// would apply half the change over that step (the average-acceleration
-    /// rule takes a force jump for a ramp).
+    /// Accelerations, multipliers and cable tensions of the state under the
+    /// current commands: a command jumps at a step start, so the step starts
+    /// from A(t_n+) (from the old A_n the trapezoid would take it for a ramp).
     fn restart_accelerations(&mut self) -> Result<(), SolverError> {
         let (model, core) = (&self.model, &mut self.core);
         core.x.copy_from_slice(&self.state.x);
@@ -285,15 +261,8 @@ impl Simulator {
         core.a_guess.copy_from_slice(&self.state.a);
         core.factor(model, SolveMode::Basic)?;
         core.consistent_accelerations(model, &self.state.cable_tension_cmd_n, &self.settings)?;
-        // The Newmark predictor extrapolates the accelerations of the last
-        // steps: shift them by the jump, which the command makes persist.
-        for i in 0..core.a.len() {
-            let jump = core.a[i] - self.state.a[i];
-            core.a_prev[i] += jump;
-            core.a_prev2[i] += jump;
-            core.a_prev3[i] += jump;
-            core.a_prev4[i] += jump;
-        }
+        // (the jump persists: the predictor's history moves with it)
+        core.history.shift(&self.state.a, &core.a);
         let s = &mut self.state;
         s.a.copy_from_slice(&core.a);
         s.lambda.clone_from(&core.lambda);
@@ -308,11 +277,10 @@ impl Simulator {
         self.model.locks.iter().all(|&e| self.state.locked[e])
     }
 
-    /// Mechanisms 3n - rank A of the current constraint set: the rank the
-    /// solver reveals (dense: SVD; sparse: the pivots of its redundant-row probe
-    /// at the last factorization, equal to the SVD rank on the bundled models:
-    /// tested), else a dense SVD up to `rank_check_max_coords`, else the
-    /// Maxwell lower bound 3n - rows.
+    /// Mechanisms 3n - rank A of the current constraint set: the backend's rank
+    /// (dense: SVD; sparse: its probe's pivots, tested equal to the SVD's on
+    /// the bundled models), else an SVD up to `rank_check_max_coords`, else
+    /// the Maxwell bound 3n - rows.
     fn mechanisms_now(&self) -> usize {
         let n = self.model.n_coords();
         let solver = &self.core.solver;
@@ -323,15 +291,12 @@ impl Simulator {
             }
             None => return n.saturating_sub(self.core.jac.nrows),
         };
-        // (a pivot rank can exceed n on a nearly singular giant truss: see
-        // pivot_rank; the count is then a lower bound)
-        n.saturating_sub(rank)
+        n.saturating_sub(rank) // (a lower bound where a pivot rank exceeds n)
     }
 
     /// Advances the state by exactly `dt` seconds, latching elements on the
-    /// way. Returns the number of latch events in this step (the entries it
-    /// added to the lock table). A non-finite constraint Jacobian names the
-    /// element whose rows it is in.
+    /// way. Returns the number of latch events in this step. A non-finite
+    /// constraint Jacobian names the element whose rows it is in.
     pub fn step(&mut self, dt: f64) -> Result<usize, SolverError> {
         self.step_stages(dt).map_err(|e| match e {
             SolverError::NonFiniteJacobian => {
@@ -341,8 +306,12 @@ impl Simulator {
         })
     }
 
-    /// `step`'s stages: sub-steps (integrator, events, impact, ledger) to
-    /// the step's end.
+    /// `step`'s stages, per sub-step: the trial and its gates (`trial`), the
+    /// latches inside it (`finish_substep`), the motors
+    /// (`motors_after_substep`). The one retry route is the sub-step's
+    /// length: cut by a failure or a gate, doubled back after a sub-step
+    /// that used at most a quarter of its ledger budget (doubling h
+    /// multiplies the miss by 8 and its budget by 2).
     fn step_stages(&mut self, dt: f64) -> Result<usize, SolverError> {
         if !(dt.is_finite() && dt > 0.0) {
             return Err(SolverError::Invalid(format!(
@@ -355,45 +324,16 @@ impl Simulator {
             self.restart_accelerations()?;
         }
         let t_end = self.state.t_s + dt;
-        // (the step's latch events: the new entries of the lock table)
         let locks_before = self.state.locks.len();
-        let mut substeps = 0;
-        // Sub-step length: halved when the Newmark iteration does not converge
-        // (near singular configurations), doubled back after each success.
-        let mut h_try = dt;
-        // (late in a run a step's sub-steps may add up to one or two units
-        // of roundoff of t short of its end: no sub-step of that length,
-        // whose energy the ledger cannot resolve, is taken)
+        // (sub-steps may add up to a few units of roundoff short of t_end:
+        // none that short, whose energy the ledger cannot resolve, is taken)
         let end_tol_s = (self.settings.step_end_rel * dt).max(8.0 * f64::EPSILON * t_end.abs());
-        // (the next trial repeats a blend entry's under the backward-Euler rule)
-        let mut backward_euler_next = false;
+        let (mut h_try, mut substeps, mut backward_euler_next) = (dt, 0, false);
         while t_end - self.state.t_s > end_tol_s {
-            self.core.backward_euler = std::mem::take(&mut backward_euler_next);
-            // (the sub-steps after a restart, elastic members:
-            // `Core::restart_substeps_left`, the k-th at most 2^k times the
-            // first, also where a step's end falls among them)
-            let st = &self.settings;
-            let restart_left = self.core.restart_substeps_left;
-            if restart_left > 0 && st.elastic_members {
-                self.core.backward_euler = true;
-                let k = st.restart_substeps.saturating_sub(restart_left);
-                let cap = st.restart_substep_fraction * dt * 2f64.powi(k as i32);
-                h_try = h_try.min(cap);
-            }
-            if let Some(why) = self.limits.reached() {
-                return Err(SolverError::Stopped {
-                    t_s: self.state.t_s,
-                    why,
-                });
-            }
             substeps += 1;
-            if substeps > self.settings.max_substeps + 4 * self.model.locks.len() {
-                return Err(SolverError::Invalid(format!(
-                    "more than {} sub-steps or latch events inside the step ending at t = {t_end:.6} s \
-                     (raise [solver] max_substeps, or use a smaller --dt)",
-                    self.settings.max_substeps
-                )));
-            }
+            self.check_step_limits(substeps, t_end)?;
+            self.core.backward_euler = std::mem::take(&mut backward_euler_next);
+            h_try = self.restart_substep_cap(h_try, dt);
             let h = h_try
                 .min(t_end - self.state.t_s)
                 .min(self.transient_step_s());
@@ -409,12 +349,9 @@ impl Simulator {
                     continue;
                 }
             };
-            // (a failure that left the state as it was: in a latch search,
-            // whose steps to the crossing did not converge; retried shorter
-            // like the trial itself, the crossing is then searched inside a
-            // shorter step, or falls after it; at the shortest sub-step, or
-            // after the state moved on, in a latch's own projection, it
-            // stands)
+            // (a failure that left the state as it was, in a latch search's
+            // steps to the crossing, is retried shorter like the trial; one
+            // at the shortest sub-step, or after the state moved on, stands)
             let before = self.state_mark();
             match self.finish_substep(h) {
                 Ok(()) => {}
@@ -433,7 +370,6 @@ impl Simulator {
                 h_try = h_try.min(h);
                 continue;
             }
-            // (doubling h multiplies the miss by 8 and its budget by 2)
             if budget_used <= 0.25 {
                 h_try = (2.0 * h_try).min(dt);
             }
@@ -445,17 +381,46 @@ impl Simulator {
         Ok(self.state.locks.len() - locks_before)
     }
 
-    /// A trial sub-step of length h (stage `integrator`) and the gates on
-    /// it, each of which retries the sub-step (the one retry route: a
-    /// shorter h, or the same h once more under the backward-Euler rule).
+    /// The caller's limits (`StepLimits`), and at most `max_substeps` sub-steps
+    /// (four more per lockable element, for latch events) in a step.
+    fn check_step_limits(&self, substeps: usize, t_end: f64) -> Result<(), SolverError> {
+        if let Some(why) = self.limits.reached() {
+            return Err(SolverError::Stopped {
+                t_s: self.state.t_s,
+                why,
+            });
+        }
+        let max = self.settings.max_substeps;
+        if substeps > max + 4 * self.model.locks.len() {
+            return Err(SolverError::Invalid(format!(
+                "more than {max} sub-steps or latch events inside the step ending at t = {t_end:.6} s \
+                 (raise [solver] max_substeps, or use a smaller --dt)"
+            )));
+        }
+        Ok(())
+    }
+
+    /// Elastic members: the sub-steps after a restart are backward-Euler, the
+    /// k-th at most 2^k `restart_substep_fraction` dt, also where a step's end
+    /// falls among them (`Core::restart_substeps_left`).
+    fn restart_substep_cap(&mut self, h_try: f64, dt: f64) -> f64 {
+        let (st, left) = (&self.settings, self.core.restart_substeps_left);
+        if left == 0 || !st.elastic_members {
+            return h_try;
+        }
+        self.core.backward_euler = true;
+        let k = st.restart_substeps.saturating_sub(left);
+        h_try.min(st.restart_substep_fraction * dt * 2f64.powi(k as i32))
+    }
+
+    /// A trial sub-step of length h (stage `integrator`) and its gates, each
+    /// of which retries it: shorter, or once more under the backward-Euler rule.
     fn trial(&mut self, h: f64, dt: f64) -> Result<Trial, SolverError> {
         let (st, base) = (&self.settings, SolveMode::Basic);
         let above_shortest = h > dt * st.min_substep_fraction;
         match self.core.newmark(&self.model, &self.state, h, st, base) {
-            // (a projection that fails at the trial is retried shorter too:
-            // near a singular configuration the shorter step stays nearer
-            // the manifold; so is a trial whose iterates diverged to
-            // non-finite values from the finite accepted state)
+            // (a failed projection or iterates gone non-finite too: near a
+            // singular state the shorter step stays nearer the manifold)
             Err(e) if shorter_may_converge(&e) && above_shortest => {
                 self.core.stats.fallbacks.substep_halvings += 1;
                 return Ok(Trial::Retry { h_s: 0.5 * h });
@@ -463,15 +428,12 @@ impl Simulator {
             Err(e) => return Err(e),
             Ok(()) => {}
         }
-        // The trial stepped over the friction blend's fast transient
-        // (a damper whose time constant the step exceeds many times),
-        // which the average-acceleration rule leaves ringing. With
-        // elastic members: the same step again under the backward-Euler
-        // rule, which leaves it at rest (amplification 1 / (1 + 2x)
-        // against (1 - x) / (1 + x), x = h/2 times the damper's rate),
-        // the ledger booking that rule's own term (`integrator_work_j`).
-        // With rigid members, whose projections that term does not
-        // cover, the transient is resolved by halving h (docs/solver.md).
+        // A blend entry: the trial stepped over the friction blend's fast
+        // transient, which the average acceleration leaves ringing
+        // (docs/solver.md, Sub-steps). Elastic members: the same h under the
+        // backward-Euler rule, amplification 1 / (1 + 2x) against
+        // (1 - x) / (1 + x), its own term booked (`integrator_work_j`); rigid
+        // members, whose projections that term does not cover: h halved.
         if self.core.blend_entry && !self.core.backward_euler {
             if st.elastic_members {
                 self.core.stats.fallbacks.blend_entry_backward_euler += 1;
@@ -486,26 +448,14 @@ impl Simulator {
             self.core.stats.contact_cuts += 1;
             return Ok(Trial::Retry { h_s: h_cut });
         }
-        Ok(match self.trial_ledger(h, dt) {
-            TrialLedger::MadeEnergy => {
-                self.core.stats.fallbacks.substep_energy_halvings += 1;
-                Trial::Retry { h_s: 0.5 * h }
-            }
-            TrialLedger::OverBudget => {
-                self.core.stats.ledger_halvings += 1;
-                Trial::Retry { h_s: 0.5 * h }
-            }
-            TrialLedger::Sound { budget_used } => Trial::Sound { budget_used },
-        })
+        Ok(self.trial_ledger(h, dt))
     }
 
-    /// The computed trial of length h crosses a unilateral spring's contact
-    /// (onset or release: `contact_distance_m` d changes sign from the
-    /// state to the trial): the sub-step length that ends `contact_cut_rel`
-    /// of h past the first crossing, s h with s = d0 / (d0 - d1) (linear in
-    /// d). None where nothing crosses, the crossing lies within
-    /// `contact_cut_rel` of the trial's end, or the cut would be shorter
-    /// than the shortest sub-step.
+    /// Where the trial crosses a unilateral spring's contact (its
+    /// `contact_distance_m` d changes sign, first at s = d0 / (d0 - d1)), the
+    /// sub-step length (s + `contact_cut_rel`) h; None where nothing crosses,
+    /// within `contact_cut_rel` of the end, or the cut is below the shortest
+    /// sub-step.
     fn contact_cut(&self, h: f64, dt: f64) -> Option<f64> {
         let st = &self.settings;
         let (x0, x1) = (&self.state.x, &self.core.x);
@@ -524,28 +474,25 @@ impl Simulator {
             .then_some(cut)
     }
 
-    /// The ledger's verdict on the trial sub-step of length h (stage
-    /// `ledger`), from its residual r (the change of kinetic energy less the
-    /// work booked over it). Not checked in compliant latches' transients
-    /// (the run's balance check covers them).
-    /// - `MadeEnergy`: |r| beyond `substep_energy_rel` of the energy that
-    ///   flowed in it and beyond `substep_energy_floor_rel` of the run's
-    ///   energy scale (`Energy::scale_j`): a Newmark solution that made
-    ///   energy no force accounts for. Down to
-    ///   `made_energy_min_substep_fraction` of the step, below the shortest
-    ///   sub-step of the other halvings while each halving at least halves
-    ///   the miss per second; else `Sound` (counted as
-    ///   `substep_energy_accepted`).
-    /// - `OverBudget`: |r| > b h E with b = `ledger_budget_rel_per_s` and E
-    ///   the largest of the run's scale, the trial's kinetic energy and the
-    ///   drive's work to the reference geometry: the trapezoid's error (of
-    ///   order h^3) in fast motion. Above the shortest sub-step
-    ///   (`min_substep_fraction`); there `Sound` (counted as
-    ///   `ledger_budget_exceeded`).
-    /// - `Sound`, with the fraction |r| / (b h E) of the budget it used.
-    fn trial_ledger(&mut self, h: f64, dt: f64) -> TrialLedger {
+    /// The ledger's gate on the trial sub-step of length h (stage `ledger`),
+    /// from its residual r, the change of kinetic energy less the work booked
+    /// over it (not in compliant latches' transients: the run's balance
+    /// covers them):
+    /// - made energy: |r| beyond `substep_energy_rel` of the energy that
+    ///   flowed and `substep_energy_floor_rel` of the run's scale
+    ///   (`Energy::scale_j`). Halved down to `made_energy_min_substep_fraction`
+    ///   of the step, below `min_substep_fraction` only while each halving at
+    ///   least halves the miss per second; else accepted
+    ///   (`substep_energy_accepted`).
+    /// - over budget: |r| > b h E, b = `ledger_budget_rel_per_s`, E the
+    ///   largest of the run's scale, the trial's kinetic energy and the drive's
+    ///   work to the reference geometry: the trapezoid's O(h^3) error. Halved
+    ///   down to `min_substep_fraction` (`ledger_halvings`); there accepted
+    ///   (`ledger_budget_exceeded`).
+    /// - else sound, with the fraction |r| / (b h E) of the budget it used.
+    fn trial_ledger(&mut self, h: f64, dt: f64) -> Trial {
         if !self.state.transients.is_empty() {
-            return TrialLedger::Sound { budget_used: 0.0 };
+            return Trial::Sound { budget_used: 0.0 };
         }
         let trial = self.trial_energy_residual_j(h);
         let st = &self.settings;
@@ -556,12 +503,10 @@ impl Simulator {
         let shortest = h <= dt * st.min_substep_fraction;
         let halved = self.made_energy_halved.take();
         if miss_j > rel * trial.flow_j && miss_j > floor_rel * scale_j {
-            // (at and below the shortest sub-step, only while halving helps:
-            // a trial of half the length that misses more than a quarter as
-            // much has not halved the miss per second; that energy is not
-            // the step length's error, which falls as h^3, but a power the
-            // solution makes near the singular state, and shorter sub-steps
-            // would add up as much of it over the same time)
+            // (at the shortest sub-step only while halving helps: a half that
+            // misses more than a quarter as much has not halved the miss per
+            // second, which is then no O(h^3) error but a power the solution
+            // makes near a singular state)
             let helps = match halved {
                 Some((h_prev, miss_prev)) if (h_prev / h - 2.0).abs() < 1e-9 => {
                     miss_j < 0.25 * miss_prev
@@ -570,19 +515,17 @@ impl Simulator {
             };
             if h > dt * st.made_energy_min_substep_fraction && (!shortest || helps) {
                 self.made_energy_halved = Some((h, miss_j));
-                return TrialLedger::MadeEnergy;
+                self.core.stats.fallbacks.substep_energy_halvings += 1;
+                return Trial::Retry { h_s: 0.5 * h };
             }
             self.core.stats.fallbacks.substep_energy_accepted += 1;
-            return TrialLedger::Sound { budget_used: 0.0 };
+            return Trial::Sound { budget_used: 0.0 };
         }
-        // (the budget controls the average-acceleration rule's error, which
-        // falls as h^3; a backward-Euler trial books its own term, and
-        // halving it only hands the transient back to the other rule)
+        // (the budget is the trapezoid's; a backward-Euler trial books its own term)
         if self.core.backward_euler {
-            return TrialLedger::Sound { budget_used: 0.0 };
+            return Trial::Sound { budget_used: 0.0 };
         }
-        // (the trial's own kinetic energy too: a run from rest, with no
-        // drive, has no scale before its first sub-step)
+        // (the trial's kinetic energy: a run from rest without drive has no scale)
         let budget_j = budget_rel_per_s
             * h
             * scale_j
@@ -592,19 +535,19 @@ impl Simulator {
         // (0/0: the control is off, or nothing has an energy yet)
         if budget_used > 1.0 && budget_j > 0.0 {
             if !shortest {
-                return TrialLedger::OverBudget;
+                self.core.stats.ledger_halvings += 1;
+                return Trial::Retry { h_s: 0.5 * h };
             }
             self.core.stats.fallbacks.ledger_budget_exceeded += 1;
-            TrialLedger::Sound { budget_used: 0.0 }
+            Trial::Sound { budget_used: 0.0 }
         } else {
-            TrialLedger::Sound {
+            Trial::Sound {
                 budget_used: if budget_j > 0.0 { budget_used } else { 0.0 },
             }
         }
     }
 
-    /// What a sub-step changes of the state before it fails, if anything:
-    /// its time, latch events, engaging latches and latched elements.
+    /// What a failing sub-step may have changed: time, events, transients, latches.
     fn state_mark(&self) -> (f64, usize, usize, usize) {
         let s = &self.state;
         (
@@ -619,7 +562,7 @@ impl Simulator {
     /// positions `x_start` and the state's: else a `MissedLatch` error.
     fn check_nothing_missed(&self) -> Result<(), SolverError> {
         let (model, s) = (&self.model, &self.state);
-        let held = |e: usize| s.locked[e] || self.engaged(e);
+        let held = |e: usize| impact::held(s, &self.core, e);
         let tol = self.settings.lock_tol_m;
         match events::crossed_unlatched(model, &held, &self.x_start, &s.x, tol, None) {
             Some(e) => Err(SolverError::MissedLatch {
@@ -631,19 +574,17 @@ impl Simulator {
         }
     }
 
-    /// The trial sub-step of length h is computed: accept it, or the part of
-    /// it up to the first latch (then latch). Elements whose interpolated dip
-    /// to their lock the step map did not confirm (e.g. the ring's radial
-    /// sleeves, whose length is least at the flat state its diagonals latch
-    /// in): the full-step trial is restored and the search goes on without
-    /// them.
+    /// Accepts the computed trial of length h, or its part up to the first
+    /// latch, then latches. A dip to a lock the step map does not confirm
+    /// (the ring's radial sleeves, shortest at the flat state): the full trial
+    /// is restored and the search goes on without that element.
     fn finish_substep(&mut self, h: f64) -> Result<(), SolverError> {
         let mut not_real: Vec<usize> = Vec::new();
         loop {
             let Some((target, s_hi)) = self.first_crossing(h, &not_real) else {
                 self.accept(h);
-                // a compliant latch turning rigid moves the joints back by its
-                // deflection T/k: nothing may pass its lock on that move
+                // (a compliant latch turning rigid moves the joints by T/k:
+                // nothing may pass its lock on that move)
                 if !self.state.transients.is_empty() {
                     self.x_start.copy_from_slice(&self.state.x);
                 }
@@ -661,8 +602,6 @@ impl Simulator {
                     self.accept(h_star);
                     self.settle_transients()?;
                     self.latch()?;
-                    // Nothing may have passed its lock without latching
-                    // (a target short of its lock goes on in the next sub-step).
                     self.check_nothing_missed()?;
                     return Ok(());
                 }
@@ -686,20 +625,8 @@ enum Trial {
     RepeatBackwardEuler,
 }
 
-/// The ledger's verdict on a trial sub-step (`Simulator::trial_ledger`).
-enum TrialLedger {
-    /// It passes, having used this fraction of its miss budget.
-    Sound { budget_used: f64 },
-    /// It made or lost energy no force accounts for: halved (a fallback).
-    MadeEnergy,
-    /// It missed by more than its budget: halved (step-size control).
-    OverBudget,
-}
-
-/// Failures a shorter sub-step may cure: a Newmark iteration that did not
-/// converge, a projection that failed, iterates or a Jacobian gone
-/// non-finite (near a singular configuration the shorter step stays nearer
-/// the manifold).
+/// Failures a shorter sub-step may cure (near a singular configuration it
+/// stays nearer the manifold).
 fn shorter_may_converge(e: &SolverError) -> bool {
     matches!(
         e,

@@ -1,22 +1,16 @@
-//! Stage `motor`: speed-controlled drive motors (docs/solver.md,
-//! Speed-controlled motors). A tracking motor holds its cable length
-//! L(X) = sum_j |x_{p_j+1} - x_{p_j}| on L(t) = L_e - s (t - t_e), a
-//! rheonomic constraint whose multiplier is the motor tension T:
-//! - accelerations: A = A_0 + sum_k T_k A_1k (A_1k the response to the
-//!   joint forces g_k of a unit tension), and Lddot_i = 0 gives the k x k
-//!   system sum_k (grad L_i . A_1k) T_k = -Lddot_i(A_0);
-//! - positions and velocities: mass-orthogonal corrections along d_k, the
-//!   structure's response to grad L_k (A d_k = 0), onto L_i(t) and -s_i.
-//! - elastic members (nothing projected): inside the Newmark iteration the
-//!   system holds e + tau edot = 0 instead, e = L_i(X_{n+1}) - L_i(t_{n+1}),
-//!   linearized at the iterate as the members' rows are; an engagement's
-//!   velocity jump takes the members at their step compliance, as a
-//!   latch's (`impact`).
+//! Stage `motor`: speed-controlled drive motors (docs/solver.md, Speed-controlled motors). A
+//! tracking motor holds its cable length L(X) = sum_j |x_{p_j+1} - x_{p_j}| on
+//! L(t) = L_e - s (t - t_e), a rheonomic constraint whose multiplier is the motor tension T:
+//! - accelerations: A = A_0 + sum_k T_k A_1k (A_1k the response to the joint forces g_k of a unit
+//!   tension), and Lddot_i = 0 gives the k x k system sum_k (grad L_i . A_1k) T_k = -Lddot_i(A_0);
+//! - positions and velocities: mass-orthogonal corrections along d_k, the structure's response to
+//!   grad L_k (A d_k = 0), onto L_i(t) and -s_i;
+//! - elastic members (nothing projected): the system holds e + tau edot = 0 instead, inside the
+//!   Newmark iteration (`Core::motor_tensions`); an engagement's velocity jump takes the members
+//!   at their step compliance, as a latch's (`impact`).
 //!
-//! The tension stays in [0, `max_tension_n`]: beyond it the motor releases
-//! (to its limit or slack), and at every rigid latch; a released motor
-//! engages again at its commanded speed by a velocity jump, whose change of
-//! kinetic energy is booked as the drive's work.
+//! The tension stays in [0, `max_tension_n`]: the motor releases beyond it and at every rigid
+//! latch, and engages again at its commanded speed by a velocity jump (`motor_engage`).
 
 use super::core::Core;
 use super::Simulator;
@@ -34,22 +28,19 @@ pub(super) struct MotorWork {
     pub speed_m_s: Vec<Option<f64>>,
     /// Per cable: the length it holds at the trial's end (m), while it tracks.
     pub target_m: Vec<f64>,
-    /// Per cable: joint forces of a unit motor tension (or grad L), and the
-    /// structure's response to them (accelerations, multipliers).
+    /// Per cable: joint forces of a unit tension (or grad L), the responses to them (A, lambda).
     g: Vec<Vec<f64>>,
     resp: Vec<Vec<f64>>,
     resp_lambda: Vec<Vec<f64>>,
     a0: Vec<f64>,
     lambda0: Vec<f64>,
     q_save: Vec<f64>,
-    /// Per cable: its mobility were the structure free, grad L . W q for
-    /// the force q its column solves with (W the solve's inverse masses):
-    /// the scale of its diagonal; and a joint-sized scratch.
+    /// Per cable: its mobility were the structure free, the scale of its diagonal
+    /// (`Core::motor_responses`); and a joint-sized scratch.
     free: Vec<f64>,
     scratch: Vec<f64>,
     c_save: Vec<f64>,
-    /// The k x k system (row-major) and its right side / solution, in the
-    /// order of the tracking cables.
+    /// The k x k system (row-major) and its right side / solution, in the tracking cables' order.
     mat: Vec<f64>,
     rhs: Vec<f64>,
     order: Vec<usize>,
@@ -84,14 +75,12 @@ impl MotorWork {
         self.c_save.resize(rows, 0.0);
     }
 
-    /// Solves the k x k system in `mat`, `rhs` (its solution into `rhs`);
-    /// an error naming the cable where a diagonal is below `motor_pivot_rel`
-    /// of its free value (the structure cannot move along it), or the
-    /// cables where a pivot is below that of the largest diagonal (two
+    /// Solves the k x k system in `mat`, `rhs` (its solution into `rhs`); an error naming the
+    /// cable where a diagonal is below `motor_pivot_rel` of its free value (the structure cannot
+    /// move along it), or the cables where a pivot is below that of the largest diagonal (two
     /// motors move it alike).
     fn solve(&mut self, model: &Model) -> Result<(), SolverError> {
-        // (a cable the structure cannot move along: its diagonal, grad L . d,
-        // the structure's mobility along it, vanishes against the free one)
+        // (the diagonal grad L . d is the structure's mobility along the cable)
         let (k, tiny) = (self.rhs.len(), model.solver.motor_pivot_rel);
         let diag = |i: usize| self.mat[i * k + i];
         // (both negative for a tension, whose pull shortens the cable)
@@ -145,8 +134,7 @@ impl MotorWork {
         self.speed_m_s.iter().any(Option::is_some)
     }
 
-    /// Takes the tracking motors of the state (their speeds), for solves at
-    /// the state's time.
+    /// Takes the tracking motors of the state (their speeds), for solves at the state's time.
     pub fn take_modes(&mut self, s: &State) {
         for (w, m) in self.speed_m_s.iter_mut().zip(&s.motors) {
             *w = match m.hold {
@@ -156,8 +144,7 @@ impl MotorWork {
         }
     }
 
-    /// Motor `ci` at its commanded speed, with the state's tracking motors
-    /// (`others`) or alone.
+    /// Motor `ci` at its commanded speed, with the state's tracking motors (`others`) or alone.
     fn take_modes_with(&mut self, s: &State, ci: usize, others: bool) {
         if others {
             self.take_modes(s);
@@ -167,8 +154,7 @@ impl MotorWork {
         self.speed_m_s[ci] = s.motors[ci].speed_cmd_m_s;
     }
 
-    /// The lengths the tracking motors hold at the end of a trial of length
-    /// h from the state: L_ref - s h.
+    /// The lengths the tracking motors hold at the end of a trial of length h: L_ref - s h.
     pub fn set_targets(&mut self, s: &State, h: f64) {
         for (ci, m) in s.motors.iter().enumerate() {
             if let Some(speed) = self.speed_m_s[ci] {
@@ -203,13 +189,10 @@ impl Core {
         cable::add_forces(c, &self.cables[ci], &self.x, g);
     }
 
-    /// The tracking motors' tensions, with the accelerations `a_0` and
-    /// multipliers of the other forces already solved in `a`, `lambda`: one
-    /// more solve per motor (its unit forces), then the k x k system for
-    /// Lddot = 0, or inside elastic members' Newmark iteration for
-    /// e + tau edot = 0, e = L(X_{n+1}) - L_target (module doc). `a`,
-    /// `lambda`, `q` and the cable readings end with the motors' tensions in
-    /// them.
+    /// The tracking motors' tensions, with the accelerations `a_0` and multipliers of the other
+    /// forces already solved in `a`, `lambda`: one more solve per motor (its unit forces), then the
+    /// k x k system for Lddot = 0, or in elastic members' Newmark iteration for e + tau edot = 0.
+    /// `a`, `lambda`, `q` and the cable readings end with the motors' tensions in them.
     pub fn motor_tensions(&mut self, model: &Model) -> Result<(), SolverError> {
         let mw = &mut self.motor;
         mw.a0.copy_from_slice(&self.a);
@@ -217,19 +200,8 @@ impl Core {
         mw.lambda0[..m].copy_from_slice(&self.lambda[..m]);
         mw.q_save.copy_from_slice(&self.q);
         mw.c_save[..m].copy_from_slice(&self.c[..m]);
-        mw.take_order();
-        for oi in 0..self.motor.order.len() {
-            let ci = self.motor.order[oi];
-            self.q.copy_from_slice(&self.motor.g[ci]);
-            self.motor_free_mobility(model, ci);
-            self.c[..m].fill(0.0);
-            self.solve_accelerations(model)?;
-            self.motor.resp[ci].copy_from_slice(&self.a);
-            self.motor.resp_lambda[ci][..m].copy_from_slice(&self.lambda[..m]);
-        }
-        // (elastic members' Newmark iteration, where nothing is projected:
-        // the motor holds its length at the step's end with the members'
-        // relaxation, as their rows do; X and tau V move by
+        self.motor_responses(model, true)?;
+        // (elastic members' Newmark iteration, nothing projected: X and tau V move by
         // b = beta h^2 + tau gamma h per unit of A)
         let index3 = match self.compliant {
             Some((h, true)) => Some((self.step_relaxation_beta(h), self.relaxation_s)),
@@ -239,20 +211,13 @@ impl Core {
         self.q.copy_from_slice(&mw.q_save);
         self.c[..m].copy_from_slice(&mw.c_save[..m]);
         let k = mw.order.len();
-        mw.mat.clear();
         mw.rhs.clear();
         for &ci in &mw.order {
             let c = &model.cables[ci];
-            for &ck in &mw.order {
-                mw.mat.push(c.length_rate(&self.x, &mw.resp[ck]));
-            }
             mw.rhs.push(match index3 {
-                // e + tau edot = 0 for the miss e = L(X) - L_target,
-                // edot = Ldot + s, linearized at the iterate A_g's (X, V):
-                // b grad L . (A - A_g) + e + tau edot = 0, so
+                // e + tau edot = 0, e = L(X) - L_target, edot = Ldot + s, linearized at the
+                // iterate A_g's (X, V): b grad L . (A - A_g) + e + tau edot = 0, so
                 // sum_k (grad L . A_1k) T_k = -(e + tau edot) / b - grad L . (A_0 - A_g)
-                // (a motor on its length stays there: e = 0 solves
-                // edot = -e / tau)
                 Some((b, tau)) => {
                     let e = c.length_m(&self.x) - mw.target_m[ci];
                     let edot = c.length_rate(&self.x, &self.v) + mw.speed_m_s[ci].unwrap_or(0.0);
@@ -284,25 +249,34 @@ impl Core {
         Ok(())
     }
 
-    /// The responses d_k of the structure, at the current factorization
-    /// (plain masses), to the forces grad L_k of the tracking cables, into
-    /// `resp`, and the k x k matrix grad L_i . d_k into `mat` (`order` the
-    /// tracking cables).
-    fn motor_directions(&mut self, model: &Model) -> Result<(), SolverError> {
-        debug_assert!(
-            self.implicit_h.is_none(),
-            "projections use the plain masses"
-        );
+    /// The structure's responses at the current factorization (accelerations into `resp`,
+    /// multipliers into `resp_lambda`) to the tracking cables' (`order`) joint forces: a unit
+    /// motor tension's (`g`), or (`unit_tension` false, plain masses) grad L_k, the projections'
+    /// directions d_k. Also the k x k matrix grad L_i . resp_k into `mat`, and into `free` each
+    /// cable's mobility were the structure free, grad L . W q (W the solves' inverse masses).
+    fn motor_responses(&mut self, model: &Model, unit_tension: bool) -> Result<(), SolverError> {
+        debug_assert!(unit_tension || self.implicit_h.is_none());
         let m = self.jac.nrows;
         self.motor.take_order();
         for oi in 0..self.motor.order.len() {
             let ci = self.motor.order[oi];
-            self.q.fill(0.0);
-            model.cables[ci].add_length_gradient(&self.x, 1.0, &mut self.q);
-            self.motor_free_mobility(model, ci);
+            let cable = &model.cables[ci];
+            if unit_tension {
+                self.q.copy_from_slice(&self.motor.g[ci]);
+            } else {
+                self.q.fill(0.0);
+                cable.add_length_gradient(&self.x, 1.0, &mut self.q);
+            }
+            let w = Self::weights(self.implicit_h, &self.inv_mass_eff, model);
+            let mw = &mut self.motor;
+            for ((s, q), wi) in mw.scratch.iter_mut().zip(&self.q).zip(w) {
+                *s = q * wi;
+            }
+            mw.free[ci] = cable.length_rate(&self.x, &mw.scratch);
             self.c[..m].fill(0.0);
             self.solve_accelerations(model)?;
             self.motor.resp[ci].copy_from_slice(&self.a);
+            self.motor.resp_lambda[ci][..m].copy_from_slice(&self.lambda[..m]);
         }
         let mw = &mut self.motor;
         mw.mat.clear();
@@ -315,22 +289,10 @@ impl Core {
         Ok(())
     }
 
-    /// Cable `ci`'s mobility were the structure free, grad L . W q, for the
-    /// force in `q` and the inverse masses W of the solves.
-    fn motor_free_mobility(&mut self, model: &Model, ci: usize) {
-        let w = Self::weights(self.implicit_h, &self.inv_mass_eff, model);
-        let mw = &mut self.motor;
-        for ((s, q), wi) in mw.scratch.iter_mut().zip(&self.q).zip(w) {
-            *s = q * wi;
-        }
-        mw.free[ci] = model.cables[ci].length_rate(&self.x, &mw.scratch);
-    }
-
-    /// Whether the tracking motors' system (`speed_m_s`) is solvable at the
-    /// current factorization: an error naming the cables where it is not
-    /// (`MotorWork::solve`).
+    /// Whether the tracking motors' system (`speed_m_s`) is solvable at the current
+    /// factorization: an error naming the cables where it is not (`MotorWork::solve`).
     fn motors_solvable(&mut self, model: &Model) -> Result<(), SolverError> {
-        self.motor_directions(model)?;
+        self.motor_responses(model, false)?;
         let mw = &mut self.motor;
         mw.rhs.clear();
         mw.rhs.resize(mw.order.len(), 0.0);
@@ -351,9 +313,8 @@ impl Core {
         Ok(())
     }
 
-    /// Positions onto L_i(X) = target_i of the tracking motors, with the
-    /// structure's constraints holding (its projection after each correction),
-    /// until |L_i - target_i| <= `projection_tol_m`.
+    /// Positions onto L_i(X) = target_i of the tracking motors, the structure's constraints held by
+    /// its projection after each correction, until |L_i - target_i| <= `projection_tol_m`.
     pub fn project_motor_positions(
         &mut self,
         model: &Model,
@@ -365,7 +326,7 @@ impl Core {
                 return Ok(());
             }
             self.factor(model, mode)?;
-            self.motor_directions(model)?;
+            self.motor_responses(model, false)?;
             let mw = &mut self.motor;
             mw.rhs.clear();
             for &ci in &mw.order {
@@ -380,11 +341,10 @@ impl Core {
         })
     }
 
-    /// Velocities onto Ldot_i = -s_i of the tracking motors (one correction:
-    /// exact, the constraint is linear in V and A d_k = 0), with the current
-    /// factorization at x.
+    /// Velocities onto Ldot_i = -s_i of the tracking motors, with the current factorization at x:
+    /// one correction, exact (the constraint is linear in V and A d_k = 0).
     pub fn project_motor_velocities(&mut self, model: &Model) -> Result<(), SolverError> {
-        self.motor_directions(model)?;
+        self.motor_responses(model, false)?;
         let mw = &mut self.motor;
         mw.rhs.clear();
         for &ci in &mw.order {
@@ -397,10 +357,9 @@ impl Core {
 }
 
 impl Simulator {
-    /// Sets a cable's motor to reel in at `speed_m_s` (m/s; negative pays
-    /// out) from the next step on, its tension up to the cable's
-    /// `max_tension_n`; None returns it to tension control at its last
-    /// commanded tension.
+    /// Sets a cable's motor to reel in at `speed_m_s` (m/s; negative pays out) from the next step
+    /// on, its tension up to the cable's `max_tension_n`; None returns it to tension control at
+    /// its last commanded tension.
     pub fn set_cable_speed(
         &mut self,
         cable: usize,
@@ -437,8 +396,7 @@ impl Simulator {
                     m.tension_cmd_n = self.state.cable_tension_cmd_n[cable];
                 }
                 m.speed_cmd_m_s = Some(s);
-                // (a new speed, or one from tension control: the velocities
-                // jump to it; a speed the tracking motors' system cannot
+                // (the velocities jump to the new speed; one the tracking motors' system cannot
                 // take is refused, the motor left as it was)
                 if let Engage::Conflict(e) = self.motor_engage(cable)? {
                     (
@@ -455,25 +413,22 @@ impl Simulator {
         Ok(())
     }
 
-    /// Engages released motor `ci` at the state: the velocities jump onto
-    /// Ldot = -s (the drive's impulsive tension; the jump's change of kinetic
-    /// energy booked as its work), the length it holds from here on is the
-    /// state's. A structure that cannot move along the cable leaves it at
-    /// its tension limit. Where the tracking motors with it would drive one
-    /// motion (their system singular), nothing changes: `Engage::Conflict`.
+    /// Engages released motor `ci` at the state: the velocities jump onto Ldot = -s (the drive's
+    /// impulsive tension; the jump's change of kinetic energy booked as its work), and the length
+    /// it holds from here on is the state's. A structure that cannot move along the cable leaves
+    /// it at its tension limit. Where the tracking motors with it would drive one motion (their
+    /// system singular), nothing changes: `Engage::Conflict`.
     fn motor_engage(&mut self, ci: usize) -> Result<Engage, SolverError> {
         let (model, core) = (&self.model, &mut self.core);
         let s = &mut self.state;
         debug_assert!(s.motors[ci].speed_cmd_m_s.is_some(), "a speed command");
         core.x.copy_from_slice(&s.x);
         core.v.copy_from_slice(&s.v);
-        // (between sub-steps: the next trial sets its rule again; the jump
-        // takes the average acceleration's beta, as a latch's)
+        // (the jump uses the average acceleration's beta, as a latch's; each trial sets its rule)
         core.backward_euler = false;
         if self.settings.elastic_members {
-            // (the members at their compliance over a step, c / beta(dt),
-            // whose solves factor S + D themselves: well posed at the flat
-            // state, as the latches' elastic velocity jump)
+            // (members at their step compliance c / beta(dt); the compliant solves factor S + D
+            // themselves, well posed at the flat state, as in a latch's elastic velocity jump)
             core.jac.fill(model, &core.x);
             core.compliant = Some((model.dt_s, true));
         } else {
@@ -521,7 +476,7 @@ impl Simulator {
             Err(e) => return Err(e),
         };
         core.motor.take_modes(s);
-        core.prev_h = None;
+        core.history.forget();
         Ok(engaged)
     }
 
@@ -542,10 +497,9 @@ impl Simulator {
         }
     }
 
-    /// After an accepted sub-step: a tracking motor whose tension left
-    /// [0, T_max] releases (to the limit, or slack); a released one whose
-    /// cable runs at the commanded speed again engages. Either restarts the
-    /// accelerations. Returns whether any motor changed.
+    /// After an accepted sub-step: a tracking motor whose tension left [0, T_max] releases (to the
+    /// limit, or slack); a released one whose cable runs at the commanded speed again engages.
+    /// Either restarts the accelerations. Returns whether any motor changed.
     pub(super) fn motors_after_substep(&mut self) -> Result<bool, SolverError> {
         let mut changed = false;
         for ci in 0..self.model.cables.len() {
@@ -571,8 +525,7 @@ impl Simulator {
                     self.core.motor.take_modes(&self.state);
                     changed = true;
                 }
-                // (a motor whose speed the tracking ones' system cannot take
-                // stays as it is: `Engage::Conflict`)
+                // (one whose speed the tracking ones' system cannot take stays: `Engage::Conflict`)
                 MotorHold::AtLimit if reel_in >= speed => {
                     changed |= !matches!(self.motor_engage(ci)?, Engage::Conflict(_));
                 }
@@ -583,7 +536,7 @@ impl Simulator {
             }
         }
         if changed {
-            self.core.prev_h = None;
+            self.core.history.forget();
             self.restart_accelerations()?;
         }
         Ok(changed)
@@ -596,8 +549,7 @@ enum Engage {
     Tracking,
     /// The structure cannot move along its cable: it pulls at its limit.
     AtLimit,
-    /// With the motors tracking already its speed would ask one motion for
-    /// two (their system singular, the error naming the cables): nothing
-    /// changed.
+    /// With the motors tracking already its speed would ask one motion for two (their system
+    /// singular, the error naming the cables): nothing changed.
     Conflict(SolverError),
 }

@@ -1,20 +1,15 @@
-//! Newton steps of the Newmark iteration where the fixed-point iteration does
-//! not contract (docs/solver.md, Newton switch). The iteration solves
-//! A = G(A), G(A) the constrained accelerations at the Newmark (x, v) of A;
-//! its stiff explicit terms are the pulley friction's blend (below the slip
-//! speed a damper of mu theta T / s_slip) and the springs of compliant
-//! elements and latches (dQ/dA = -(k h^2/4 + c h/2) A^T A). Newton on
-//! R(A) = G(A) - A solves (I - G') d = R(A), G' = P M_eff^-1 dQ/dA (P the
-//! constrained solve), by GMRES in the kinetic inner product, one
-//! constrained solve per product; G' maps into the free motions, so GMRES
-//! needs about as many iterations as there are mechanisms plus one. The
-//! friction law is piecewise smooth, so the step is cut back (line search,
-//! `newton_advance`) until the residual's kinetic norm decreases: only the
-//! direction uses the approximate derivative, and the converged A is the
-//! plain iteration's. Where the iterates alternate between the saturated
-//! sides of many blends, the Newton steps are retried once from the best
-//! iterate with each pulley's secant slope back to the step start
-//! (`newton_secant`).
+//! Newton steps of the Newmark iteration where the fixed-point iteration does not contract
+//! (docs/solver.md, Newton switch). The iteration solves A = G(A), G(A) the constrained
+//! accelerations at the Newmark (x, v) of A; its stiff explicit terms are the pulley friction's
+//! blend (below the slip speed a damper of mu theta T / s_slip) and the springs of compliant
+//! elements and latches (dQ/dA = -(k h^2/4 + c h/2) A^T A). Newton on R(A) = G(A) - A solves
+//! (I - G') d = R(A), G' = P M_eff^-1 dQ/dA (P the constrained solve), by GMRES in the kinetic
+//! inner product, one constrained solve per product; G' maps into the free motions, so GMRES needs
+//! about as many iterations as there are mechanisms plus one. The friction law is piecewise smooth:
+//! a line search (`newton_advance`) cuts the step back until the residual's kinetic norm
+//! decreases, so only the direction uses the approximate derivative and the converged A is the
+//! plain iteration's. Iterates alternating across many blends: one retry with secant slopes from
+//! the best iterate (`newton_secant`).
 
 use super::core::Core;
 use crate::solver::cable;
@@ -26,25 +21,22 @@ use crate::solver::SolverError;
 /// Buffers of the Newton steps (made once; rows-sized ones follow the pattern).
 pub(super) struct NewtonWork {
     n: usize,
-    /// The accepted iterate, its residual G(A) - A and kinetic norm, the
-    /// direction, and the line search's step fraction.
+    /// The accepted iterate, its residual G(A) - A and kinetic norm; direction; step fraction.
     a_acc: Vec<f64>,
     r_acc: Vec<f64>,
     norm_acc: f64,
     dir: Vec<f64>,
     alpha: f64,
-    /// Line search: trials since the last accepted iterate, the bracket's
-    /// ends (alpha, <R, d>) on the accepted side and across the sign change,
-    /// and which end the last trial replaced (Illinois).
+    /// Line search: trials since the last accepted iterate, the bracket's ends (alpha, <R, d>) on
+    /// the accepted side and across the sign change, and which end the last trial replaced.
     trials: usize,
     lo: (f64, f64),
     hi: Option<(f64, f64)>,
     kept_side: i8,
     r_dir0: f64,
-    /// The largest |G' v| over the GMRES basis vectors (unit kinetic norm)
-    /// of this Newmark step's Newton steps: the friction blend's stiffness
-    /// h/2 |P M^-1 dQ/dV| seen by the iteration (1 and above: it alone
-    /// makes the plain iteration diverge).
+    /// The largest |G' v| over the GMRES basis vectors (unit kinetic norm) of this Newmark step's
+    /// Newton steps: the friction blend's stiffness h/2 |P M^-1 dQ/dV| seen by the iteration
+    /// (1 and above: it alone makes the plain iteration diverge).
     pub gain: f64,
     gmres: Gmres,
     // operator work: dv, dQ, the constrained response, multipliers, zero c
@@ -87,18 +79,16 @@ impl NewtonWork {
 }
 
 impl Core {
-    /// Starts the Newton steps from the current iterate (`a_guess`, whose map
-    /// value is in `a`, cable readings and factorization at its (x, v)):
-    /// accepts it and puts the first Newton iterate in `a_guess`.
+    /// Starts the Newton steps from the current iterate (`a_guess`, its map value in `a`, cable
+    /// readings and factorization at its (x, v)): accepts it, puts the first iterate in `a_guess`.
     pub(super) fn newton_start(
         &mut self,
         model: &Model,
         h: f64,
         st: &SolverSettings,
     ) -> Result<(), SolverError> {
-        // (the line search starts afresh: the bracket, step fraction and
-        // trial count an earlier step's failed search left behind would
-        // refuse this first iterate and fail the Newton steps at once)
+        // a fresh line search: an earlier failed search's bracket, step fraction and trial count
+        // would refuse this first iterate and fail the Newton steps at once
         let nw = &mut self.newton;
         nw.norm_acc = f64::INFINITY;
         nw.gain = 0.0;
@@ -109,17 +99,14 @@ impl Core {
         self.newton_advance(model, h, st).map(|_| ())
     }
 
-    /// After the map value `a` of the Newton iterate `a_guess` is computed:
-    /// accepts it (its residual's kinetic norm decreased enough) and puts the
-    /// next Newton iterate in `a_guess`, or moves the step length along the
-    /// direction (line search). Returns false where the line search gives up
-    /// (the iteration has failed).
+    /// After the map value `a` of the Newton iterate `a_guess` is computed: accepts it (its
+    /// residual's kinetic norm decreased enough) and puts the next Newton iterate in `a_guess`, or
+    /// moves the step length along the direction. Returns false where the line search gives up.
     ///
-    /// Line search: along d the residual's component r(alpha) = <R(A + alpha
-    /// d), d> changes sign where the step crosses the blend (a step from a
-    /// saturated iterate is the plain one and overshoots to the other side);
-    /// once a trial has bracketed that sign change, the next alpha is the
-    /// Illinois (regula falsi) point of the bracket, else alpha is halved.
+    /// Line search: r(alpha) = <R(A + alpha d), d> changes sign where the step crosses the blend (a
+    /// step from a saturated iterate is the plain one and overshoots to the other side); once a
+    /// trial has bracketed that sign change, the next alpha is the bracket's Illinois point, else
+    /// alpha is halved.
     pub(super) fn newton_advance(
         &mut self,
         model: &Model,
@@ -135,9 +122,8 @@ impl Core {
         }
         let norm = norm2.sqrt();
         let nw = &mut self.newton;
-        // (once a trial has bracketed the sign change of <R, d>, a decrease
-        // is accepted only near it: a trial still on the saturated side would
-        // start the next Newton step from there and overshoot again)
+        // once bracketed, a decrease is accepted only near the sign change of <R, d>: a trial still
+        // on the saturated side would start the next Newton step there and overshoot again
         let near = nw.hi.is_none() || r_dir.abs() <= st.newmark_newton_curvature * nw.r_dir0.abs();
         if norm.is_finite()
             && norm <= (1.0 - st.newmark_newton_decrease * nw.alpha) * nw.norm_acc
@@ -167,7 +153,7 @@ impl Core {
             if r_dir * r_lo > 0.0 {
                 nw.lo = (nw.alpha, r_dir);
                 if nw.kept_side == 1 {
-                    // (Illinois: the far end kept twice, its value halved)
+                    // Illinois: the far end kept twice, its value halved
                     if let Some(hi) = nw.hi.as_mut() {
                         hi.1 *= 0.5;
                     }
@@ -186,7 +172,7 @@ impl Core {
                     a_lo - r_lo * (a_hi - a_lo) / (r_hi - r_lo)
                 }
                 _ => {
-                    // (no sign change yet: back toward the accepted iterate)
+                    // no sign change yet: back toward the accepted iterate
                     nw.lo = (a_lo, r_lo);
                     0.5 * nw.alpha
                 }
@@ -202,20 +188,17 @@ impl Core {
         Ok(true)
     }
 
-    /// Whether the friction direction's blend is in play in this step: a
-    /// pulley (with friction) slides slower than its slip speed in the
-    /// trial's cable readings or at the step start, or the other way than at
-    /// the step start (the iterates of a step across the blend can alternate
-    /// between its two saturated sides).
+    /// Whether a friction blend is in play in this step (`pulleys_in_blend` from the step start):
+    /// the iterates of a step across a blend can alternate between its two saturated sides.
     pub(super) fn friction_blend_active(&self, model: &Model) -> bool {
         self.pulleys_in_blend(model, &self.friction_sliding)
             .next()
             .is_some()
     }
 
-    /// The pulleys (with friction) whose blend is in play in this step, as
-    /// (sliding now, sliding at the start `start`, slip speed): inside the
-    /// blend at either end, or sliding the other way than at the start.
+    /// The pulleys (with friction) whose blend is in play, as (sliding now, sliding at `start`,
+    /// slip speed): slower than the slip speed in the trial's cable readings or at `start`, or
+    /// sliding the other way than at `start`.
     fn pulleys_in_blend<'a>(
         &'a self,
         model: &'a Model,
@@ -237,15 +220,12 @@ impl Core {
             .filter(|&(s, s0, slip)| s.abs() < slip || s0.abs() < slip || s * s0 < 0.0)
     }
 
-    /// Whether the step went through a fast part of the friction's transient:
-    /// a pulley (with friction) inside the blend at the step's start or end,
-    /// or on the other side at its end, changed its sliding by more than
-    /// `change_rel` times its slip speed. (Inside the blend the friction is a
-    /// damper whose time constant the step exceeds many times; a change of
-    /// the sliding there is that transient, stepped over.) The change is
-    /// counted from `blend_start`: the step's start, or after a restart's
-    /// short backward-Euler sub-steps the restart's (`Core::restart_substeps_left`), whose
-    /// transient that sub-step only began to damp.
+    /// Whether the step went through a fast part of the friction's transient: a pulley in play
+    /// (`pulleys_in_blend`) changed its sliding by more than `change_rel` times its slip speed.
+    /// Inside the blend the friction is a damper whose time constant the step exceeds many times;
+    /// a change of the sliding there is that transient, stepped over. The change is counted from
+    /// `blend_start`: the step's start, or after a restart's short backward-Euler sub-steps
+    /// (`Core::restart_substeps_left`) the restart's, whose transient those only began to damp.
     pub(super) fn friction_blend_entered(&self, model: &Model, change_rel: f64) -> bool {
         self.pulleys_in_blend(model, &self.blend_start)
             .any(|(s, s0, slip)| (s - s0).abs() > change_rel * slip)
@@ -256,10 +236,9 @@ impl Core {
         self.a_guess.copy_from_slice(&self.newton.a_acc);
     }
 
-    /// w = (I - G') x; G' x = P M_eff^-1 (dQ/dV (gamma h x) + dQ/dX (beta h^2 x))
-    /// (h/2 and h^2/4 for the average acceleration, `StepGains`):
-    /// the friction's blend and the springs of compliant elements and
-    /// engaged compliant latches.
+    /// w = (I - G') x; G' x = P M_eff^-1 (dQ/dV (gamma h x) + dQ/dX (beta h^2 x)) (h/2 and h^2/4
+    /// for the average acceleration, `StepGains`): the friction's blend and the springs of
+    /// compliant elements and engaged compliant latches.
     fn newton_apply(
         &mut self,
         model: &Model,
@@ -311,16 +290,14 @@ impl Core {
             w[i] -= nw.da[i];
             gain2 += model.mass[i] * nw.da[i] * nw.da[i];
         }
-        // (|G' x| for the unit x: at least 1 where the blend is what keeps
-        // the plain iteration from contracting)
+        // `gain`: |G' x| for the unit x
         nw.gain = nw.gain.max(gain2.sqrt());
         self.book_solve(report);
         self.stats.newton_krylov_iterations += 1;
         Ok(())
     }
 
-    /// The Newton direction: (I - G') dir = r_acc by GMRES in the kinetic
-    /// inner product, from dir = 0.
+    /// The Newton direction: (I - G') dir = r_acc by GMRES in the kinetic inner product from 0.
     fn newton_direction(
         &mut self,
         model: &Model,

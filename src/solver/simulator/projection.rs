@@ -1,10 +1,6 @@
-//! Stage `projection`: positions and velocities back onto the constraint
-//! manifold by mass-orthogonal corrections (Bayo and Ledesma), so no
-//! constraint drift accumulates, and the minimum-norm multipliers of a state.
-//!
-//! Positions: Newton iterations X <- X - M^-1 A^T S^+ Phi(X) until
-//! max |Phi| <= `projection_tol_m`. Velocities: V <- V - M^-1 A^T S^+ A V,
-//! whose multipliers S^+ A V are the impulses of a velocity jump.
+//! Stage `projection`: positions and velocities back onto the constraint manifold by
+//! mass-orthogonal corrections (Bayo and Ledesma), so no constraint drift accumulates, and the
+//! least-work multipliers of a state (docs/solver.md, Integration).
 
 use super::core::Core;
 use crate::solver::linsolve::{SolveMode, SolverKind};
@@ -13,15 +9,12 @@ use crate::solver::settings::SolverSettings;
 use crate::solver::SolverError;
 
 impl Core {
-    /// Newton iterations X <- X - M^-1 A^T S^+ Phi(X) until max |Phi| <= tol,
-    /// with solves in `base` mode.
-    ///
-    /// Newton with basic solves converges on the kept rows; where the dropped
-    /// ones are only nearly redundant (e.g. every sleeve just latched at the
-    /// flat deployed state) their residual stalls, and the least-squares
-    /// (minimum-norm) iteration takes over (a counted fallback). A projection
-    /// that ends within `projection_accept_factor` of the tolerance is the
-    /// roundoff floor of a large structure; beyond that it is an error.
+    /// Newton iterations X <- X - M^-1 A^T S^+ Phi(X) until max |Phi| <= `projection_tol_m`,
+    /// with solves in `base` mode. Basic solves converge on the kept rows; where the dropped ones
+    /// are only nearly redundant (e.g. every sleeve just latched at the flat deployed state) their
+    /// residual stalls and the least-squares iteration takes over
+    /// (`fallbacks.projection_min_norm`). Ending within `projection_accept_factor` of the tolerance
+    /// is the roundoff floor of a large structure; beyond that it is an error.
     pub fn project_positions(
         &mut self,
         model: &Model,
@@ -57,25 +50,23 @@ impl Core {
             self.subtract_correction(model, false)?;
         }
         if self.violation_m <= st.projection_accept_factor * tol {
-            return Ok(()); // converged to roundoff of a large structure
+            return Ok(());
         }
         Err(SolverError::Projection {
             violation_m: self.violation_m,
         })
     }
 
-    /// V <- V - M^-1 A^T S^+ A V with the current factorization at x, made in
-    /// `mode`. Returns the multipliers in `mu` and A V (before) in `r`.
+    /// V <- V - M^-1 A^T S^+ A V with the current factorization at x, made in `mode`. Returns the
+    /// multipliers S^+ A V (a velocity jump's impulses) in `mu` and A V (before) in `r`.
     ///
-    /// A V is consistent by construction, so what is left of it is roundoff
-    /// alike on every row, unless the rows a basic solve dropped are not
-    /// redundant any more (a rank change the probe has not seen): then their
-    /// residual stands out (beyond `velocity_redo_ratio` times the kept rows'
-    /// and `velocity_redo_floor_rel` max|A| max|V|) and the projection is
-    /// redone with least squares (a counted fallback). Dropped rows that are
-    /// only nearly redundant leave up to ~5e-12 |A||v| (18-ring near its flat
-    /// state; ~6e-13 on a 180-ring at any time); that is accepted: redoing
-    /// every such step cost the 180-ring 15x.
+    /// A V is consistent by construction: what is left is roundoff alike on every row, unless rows
+    /// a basic solve dropped are no longer redundant (a rank change the probe has not seen). Their
+    /// residual then stands out (beyond `velocity_redo_ratio` times the kept rows' and
+    /// `velocity_redo_floor_rel` max|A| max|V|) and the projection is redone in least squares
+    /// (`fallbacks.velocity_min_norm`). Nearly redundant dropped rows leave up to ~5e-12 |A||v|
+    /// (18-ring near flat; ~6e-13 on a 180-ring at any time), accepted: redoing every such step
+    /// cost the 180-ring 15x.
     pub fn project_velocities(
         &mut self,
         model: &Model,
@@ -109,8 +100,7 @@ impl Core {
         self.subtract_correction(model, true)
     }
 
-    /// The mass-orthogonal correction dX = M^-1 A^T S^+ r of r in `r`
-    /// (multipliers into `mu`), subtracted from the velocities or the positions.
+    /// Subtracts dX = M^-1 A^T S^+ r of `r` (multipliers into `mu`) from velocities or positions.
     fn subtract_correction(&mut self, model: &Model, velocities: bool) -> Result<(), SolverError> {
         self.correction(model)?;
         let target = if velocities { &mut self.v } else { &mut self.x };
