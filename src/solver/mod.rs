@@ -22,12 +22,16 @@ pub mod vec3;
 
 pub use linsolve::SolverKind;
 pub use model::{Cable, Joint, Model, ModelParts};
+pub use settings::Options;
 pub use settings::SolverSettings;
-pub use simulator::{Options, Simulator, StepLimits};
+pub use simulator::Simulator;
 pub use state::{Energy, LockEvent, State};
 pub use stats::SolverStats;
 
 use std::fmt;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::Instant;
 
 #[derive(Clone, Debug, PartialEq)]
 pub enum SolverError {
@@ -72,6 +76,34 @@ pub enum SolverError {
         t_s: f64,
         why: StopWhy,
     },
+}
+
+/// When a step gives up before its end (`SolverError::Stopped`), checked
+/// before every sub-step: a caller's wall limit or signal does not wait for
+/// the thousands of sub-steps a step near a singular state can take.
+#[derive(Clone, Debug, Default)]
+pub struct StepLimits {
+    /// The wall-clock instant past which no sub-step starts.
+    pub deadline: Option<Instant>,
+    /// A flag that, once raised, stops the step before its next sub-step.
+    pub cancel: Option<Arc<AtomicBool>>,
+}
+
+impl StepLimits {
+    /// Which limit holds now, if any.
+    pub(crate) fn reached(&self) -> Option<StopWhy> {
+        if self
+            .cancel
+            .as_ref()
+            .is_some_and(|c| c.load(Ordering::Relaxed))
+        {
+            Some(StopWhy::Cancelled)
+        } else if self.deadline.is_some_and(|d| Instant::now() >= d) {
+            Some(StopWhy::Deadline)
+        } else {
+            None
+        }
+    }
 }
 
 /// Which of the caller's step limits stopped a step (`SolverError::Stopped`).

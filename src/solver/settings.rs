@@ -5,7 +5,16 @@
 //! them from [`crate::solver::Model::solver`] and passes them explicitly to
 //! each stage.
 
+use super::linsolve::SolverKind;
 use serde::{Deserialize, Serialize};
+
+/// How to run a model: the backend (sparse by default). Every numeric
+/// setting is the model's ([`crate::solver::Model::solver`], the model
+/// file's `[solver]`).
+#[derive(Clone, Debug, Default)]
+pub struct Options {
+    pub solver: SolverKind,
+}
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]

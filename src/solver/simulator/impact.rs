@@ -261,18 +261,17 @@ impl Simulator {
     /// cannot move along the sleeve (w below `latch_immobile_rel` of its free value); the caller
     /// latches it rigid (a counted fallback), after the transients of the others engaging with it.
     fn engage(&mut self, e: usize) -> Result<bool, SolverError> {
-        let model = &self.model;
-        let el = &model.elements[e];
-        let (k, c) = el.latch_spring().unwrap_or_default();
-        let Some((gap_m, rate)) = sleeve_motion_at(model, e, &self.state.x, &self.state.v) else {
+        let (model, x, v) = (&self.model, &self.state.x, &self.state.v);
+        let (k, c) = model.elements[e].latch_spring().unwrap_or_default();
+        let Some((gap_m, rate)) = sleeve_motion_at(model, e, x, v) else {
             return Ok(false);
         };
         let Some((w, period_s)) = self.latch_mode(e, k)? else {
             return Ok(false);
         };
-        let el = &self.model.elements[e];
         let t = self.state.t_s;
-        self.state.locks.push(LockEvent::new(e, el.name(), t, rate));
+        let name = self.model.elements[e].name();
+        self.state.locks.push(LockEvent::new(e, name, t, rate));
         // (the gap is zero to `latch_tol_m` at engagement: the force is the damper's, c ldot)
         let force_n = c * rate;
         let sign = if rate >= 0.0 { 1.0 } else { -1.0 };

@@ -30,50 +30,12 @@ mod projection;
 use self::core::{Core, TrialCopy};
 use self::events::gap;
 use super::jacobian::Jacobian;
-use super::linsolve::{SolveMode, SolverKind};
+use super::linsolve::SolveMode;
 use super::model::Model;
 use super::settings::SolverSettings;
 use super::state::State;
 use super::stats::SolverStats;
-use super::{SolverError, StopWhy};
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
-use std::time::Instant;
-
-/// How to run a model: the backend (sparse by default). Every numeric
-/// setting is the model's ([`Model::solver`], the model file's `[solver]`).
-#[derive(Clone, Debug, Default)]
-pub struct Options {
-    pub solver: SolverKind,
-}
-
-/// When a step gives up before its end (`SolverError::Stopped`), checked
-/// before every sub-step: a caller's wall limit or signal does not wait for
-/// the thousands of sub-steps a step near a singular state can take.
-#[derive(Clone, Debug, Default)]
-pub struct StepLimits {
-    /// The wall-clock instant past which no sub-step starts.
-    pub deadline: Option<Instant>,
-    /// A flag that, once raised, stops the step before its next sub-step.
-    pub cancel: Option<Arc<AtomicBool>>,
-}
-
-impl StepLimits {
-    /// Which limit holds now, if any.
-    fn reached(&self) -> Option<StopWhy> {
-        if self
-            .cancel
-            .as_ref()
-            .is_some_and(|c| c.load(Ordering::Relaxed))
-        {
-            Some(StopWhy::Cancelled)
-        } else if self.deadline.is_some_and(|d| Instant::now() >= d) {
-            Some(StopWhy::Deadline)
-        } else {
-            None
-        }
-    }
-}
+use super::{Options, SolverError, StepLimits};
 
 /// The simulator: an immutable model, the state it advances, and the solver.
 pub struct Simulator {
@@ -158,11 +120,7 @@ impl Simulator {
         core.factor(model, SolveMode::Basic)?;
         core.a_guess.fill(0.0);
         core.consistent_accelerations(model, &state.cable_tension_cmd_n, st)?;
-        state.x.copy_from_slice(&core.x);
-        state.a.copy_from_slice(&core.a);
-        state.lambda.clone_from(&core.lambda);
-        state.cables.clone_from(&core.cables);
-        state.max_violation_m = core.violation_m;
+        core.commit_trial(&mut state); // (v = 0, as the state's)
         self.state = state;
         self.state.mechanisms = self.mechanisms_now();
         self.state.deployed = !self.model.locks.is_empty() && self.all_locked();

@@ -483,18 +483,24 @@ impl Simulator {
     /// Releases every tracking motor to its tension limit (before a rigid
     /// latch's velocity jump: a drive cannot deliver an impulse).
     pub(super) fn motors_release_for_impact(&mut self) {
-        let mut any = false;
-        for (ci, m) in self.state.motors.iter_mut().enumerate() {
-            if m.hold == MotorHold::Tracking {
-                m.hold = MotorHold::AtLimit;
-                self.state.cable_tension_cmd_n[ci] = self.model.cables[ci].max_tension_n;
-                self.core.stats.motor_releases += 1;
-                any = true;
+        for ci in 0..self.state.motors.len() {
+            if self.state.motors[ci].hold == MotorHold::Tracking {
+                self.release_motor(ci, MotorHold::AtLimit);
             }
         }
-        if any {
-            self.core.motor.take_modes(&self.state);
-        }
+    }
+
+    /// Motor `ci` back to tension control: at its limit, or slack.
+    fn release_motor(&mut self, ci: usize, hold: MotorHold) {
+        let at_limit = hold == MotorHold::AtLimit;
+        self.state.motors[ci].hold = hold;
+        self.state.cable_tension_cmd_n[ci] = if at_limit {
+            self.model.cables[ci].max_tension_n
+        } else {
+            0.0
+        };
+        self.core.stats.motor_releases += 1;
+        self.core.motor.take_modes(&self.state);
     }
 
     /// After an accepted sub-step: a tracking motor whose tension left [0, T_max] releases (to the
@@ -503,36 +509,30 @@ impl Simulator {
     pub(super) fn motors_after_substep(&mut self) -> Result<bool, SolverError> {
         let mut changed = false;
         for ci in 0..self.model.cables.len() {
-            let m = &self.state.motors[ci];
+            let (m, c) = (&self.state.motors[ci], &self.model.cables[ci]);
             let Some(speed) = m.speed_cmd_m_s else {
                 continue;
             };
-            let c = &self.model.cables[ci];
             let reel_in = -c.length_rate(&self.state.x, &self.state.v);
-            match m.hold {
-                MotorHold::Tracking => {
-                    let t = self.state.cables[ci].segment_tension_n[0];
-                    let (hold, cmd) = if t > c.max_tension_n {
-                        (MotorHold::AtLimit, c.max_tension_n)
-                    } else if t < 0.0 {
-                        (MotorHold::Slack, 0.0)
+            let t = self.state.cables[ci].segment_tension_n[0];
+            let engage = match m.hold {
+                MotorHold::Tracking if t > c.max_tension_n || t < 0.0 => {
+                    let hold = if t < 0.0 {
+                        MotorHold::Slack
                     } else {
-                        continue;
+                        MotorHold::AtLimit
                     };
-                    self.state.motors[ci].hold = hold;
-                    self.state.cable_tension_cmd_n[ci] = cmd;
-                    self.core.stats.motor_releases += 1;
-                    self.core.motor.take_modes(&self.state);
+                    self.release_motor(ci, hold);
                     changed = true;
+                    false
                 }
-                // (one whose speed the tracking ones' system cannot take stays: `Engage::Conflict`)
-                MotorHold::AtLimit if reel_in >= speed => {
-                    changed |= !matches!(self.motor_engage(ci)?, Engage::Conflict(_));
-                }
-                MotorHold::Slack if reel_in <= speed => {
-                    changed |= !matches!(self.motor_engage(ci)?, Engage::Conflict(_));
-                }
-                _ => {}
+                MotorHold::AtLimit => reel_in >= speed,
+                MotorHold::Slack => reel_in <= speed,
+                _ => false,
+            };
+            // (one whose speed the tracking ones' system cannot take stays: `Engage::Conflict`)
+            if engage {
+                changed |= !matches!(self.motor_engage(ci)?, Engage::Conflict(_));
             }
         }
         if changed {
