@@ -71,6 +71,10 @@ pub struct SolverStats {
     /// its limit or below zero, or a rigid latch), and engaged at it.
     pub motor_releases: u64,
     pub motor_engagements: u64,
+    /// Engagements of a released motor refused because the tracking motors' system could not
+    /// take its speed (two speeds on one motion); each is tried again only after a motor or
+    /// command changes.
+    pub motor_conflicts: u64,
 }
 
 /// Fallbacks by kind (see each field).

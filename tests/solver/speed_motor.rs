@@ -407,6 +407,47 @@ fn two_speed_controlled_cables_on_one_motion_are_refused_by_name() {
     }
 }
 
+/// A released motor whose engagement conflicts with a tracking one (rigid
+/// members, the synchronized ring's two cables on one motion) stays released,
+/// and is not tried again at every sub-step: the inner cable, held to 2 N,
+/// releases at once; the outer one then tracks 0.1 m/s, running the inner
+/// cable faster than its own 0.001 m/s, so that it would engage but cannot.
+#[test]
+fn a_conflicting_engagement_is_not_retried_until_a_motor_changes() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("models/double_ring_synchronized.toml");
+    let mut model = truss_deploy::model::load(&path)
+        .expect("bundled model")
+        .model;
+    assert!(!model.solver.elastic_members);
+    model.cables[0].max_tension_n = 2.0;
+    let mut sim = Simulator::new(model, Options::default()).expect("simulator");
+    sim.set_cable_tension(1, 0.0).unwrap();
+    sim.set_cable_speed(0, Some(0.05)).unwrap();
+    sim.step(0.05).unwrap();
+    assert_eq!(sim.state().motors[0].hold, MotorHold::AtLimit);
+    sim.set_cable_speed(1, Some(0.1)).unwrap();
+    assert_eq!(sim.state().motors[1].hold, MotorHold::Tracking);
+    for _ in 0..20 {
+        sim.step(0.05).unwrap();
+    }
+    let (s, st) = (sim.state(), sim.solver_stats());
+    println!(
+        "{} sub-steps, {} conflicts, {} releases, {} engagements",
+        st.substeps, st.motor_conflicts, st.motor_releases, st.motor_engagements
+    );
+    assert_eq!(s.motors[0].hold, MotorHold::AtLimit);
+    assert_eq!(s.motors[1].hold, MotorHold::Tracking);
+    assert!(s.reeled_in_m(sim.model(), 0) > 0.001 * s.t_s);
+    // (once per change of the motors, not once per sub-step)
+    assert!(st.motor_conflicts >= 1, "the engagement was tried");
+    assert!(
+        st.motor_conflicts <= st.motor_releases + st.motor_engagements,
+        "{st:?}"
+    );
+    assert!(st.substeps >= 20 * st.motor_conflicts);
+}
+
 /// A speed command on a deployed mast, which no cable can move (every
 /// sleeve latched: no mechanism), leaves its motor at the tension limit
 /// instead of engaging it; the mast then holds.

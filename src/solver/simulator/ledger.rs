@@ -32,8 +32,7 @@ impl Simulator {
             core.stats.restart_backward_euler += 1;
         }
         core.blend_start_held = restart_be;
-        self.core.history.push(&self.state.a, h);
-        let core = &mut self.core;
+        core.history.push(&self.state.a, h);
         let (elastic_j, damper_j) = core.element_springs.book_move(
             &self.model,
             (&self.state.x, &self.state.v),

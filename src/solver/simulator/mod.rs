@@ -103,6 +103,7 @@ impl Simulator {
         core.element_springs.release_latches(None);
         core.waiting.clear();
         core.motor.take_modes(&state);
+        core.motor.conflicted.fill(false);
         core.set_pattern(model, &state.locked);
         core.x.copy_from_slice(&model.x0);
         if let Some((e, row, residual_m)) = model.initial_violation(st.initial_tol_m) {

@@ -26,6 +26,9 @@ use crate::solver::SolverError;
 pub(super) struct MotorWork {
     /// Per cable: the reel-in speed while it tracks in the trial (m/s), else None.
     pub speed_m_s: Vec<Option<f64>>,
+    /// Per cable: its engagement conflicted with the tracking motors; not tried again until a
+    /// motor or command changes (`motor_engage`).
+    pub conflicted: Vec<bool>,
     /// Per cable: the length it holds at the trial's end (m), while it tracks.
     pub target_m: Vec<f64>,
     /// Per cable: joint forces of a unit tension (or grad L), the responses to them (A, lambda).
@@ -51,6 +54,7 @@ impl MotorWork {
         let (n, nc) = (model.n_coords(), model.cables.len());
         MotorWork {
             speed_m_s: vec![None; nc],
+            conflicted: vec![false; nc],
             target_m: vec![0.0; nc],
             g: vec![vec![0.0; n]; nc],
             resp: vec![vec![0.0; n]; nc],
@@ -398,7 +402,7 @@ impl Simulator {
                 m.speed_cmd_m_s = Some(s);
                 // (the velocities jump to the new speed; one the tracking motors' system cannot
                 // take is refused, the motor left as it was)
-                if let Engage::Conflict(e) = self.motor_engage(cable)? {
+                if let Some(e) = self.motor_engage(cable)? {
                     (
                         self.state.motors[cable],
                         self.state.cable_tension_cmd_n[cable],
@@ -409,6 +413,7 @@ impl Simulator {
             }
         }
         self.core.motor.take_modes(&self.state);
+        self.core.motor.conflicted.fill(false);
         self.command_changed = true;
         Ok(())
     }
@@ -417,8 +422,8 @@ impl Simulator {
     /// impulsive tension; the jump's change of kinetic energy booked as its work), and the length
     /// it holds from here on is the state's. A structure that cannot move along the cable leaves
     /// it at its tension limit. Where the tracking motors with it would drive one motion (their
-    /// system singular), nothing changes: `Engage::Conflict`.
-    fn motor_engage(&mut self, ci: usize) -> Result<Engage, SolverError> {
+    /// system singular), nothing changes: the error naming the cables is returned.
+    fn motor_engage(&mut self, ci: usize) -> Result<Option<SolverError>, SolverError> {
         let (model, core) = (&self.model, &mut self.core);
         let s = &mut self.state;
         debug_assert!(s.motors[ci].speed_cmd_m_s.is_some(), "a speed command");
@@ -453,11 +458,11 @@ impl Simulator {
             Err(e @ SolverError::Invalid(_)) => {
                 // (the jump is not taken: the state is as it was)
                 core.motor.take_modes(s);
-                return Ok(Engage::Conflict(e));
+                return Ok(Some(e));
             }
             Err(e) => return Err(e),
         }
-        let engaged = match moved {
+        match moved {
             Ok(()) => {
                 let jump_j = kinetic_energy_j(model, &core.v) - kinetic_energy_j(model, &s.v);
                 s.energy.motor_work_j += jump_j;
@@ -466,18 +471,16 @@ impl Simulator {
                 s.motors[ci].hold = MotorHold::Tracking;
                 s.motors[ci].length_ref_m = model.cables[ci].length_m(&s.x);
                 core.stats.motor_engagements += 1;
-                Engage::Tracking
             }
             Err(SolverError::Invalid(_)) => {
                 s.motors[ci].hold = MotorHold::AtLimit;
                 s.cable_tension_cmd_n[ci] = model.cables[ci].max_tension_n;
-                Engage::AtLimit
             }
             Err(e) => return Err(e),
-        };
+        }
         core.motor.take_modes(s);
         core.history.forget();
-        Ok(engaged)
+        Ok(None)
     }
 
     /// Releases every tracking motor to its tension limit (before a rigid
@@ -501,6 +504,7 @@ impl Simulator {
         };
         self.core.stats.motor_releases += 1;
         self.core.motor.take_modes(&self.state);
+        self.core.motor.conflicted.fill(false);
     }
 
     /// After an accepted sub-step: a tracking motor whose tension left [0, T_max] releases (to the
@@ -530,26 +534,20 @@ impl Simulator {
                 MotorHold::Slack => reel_in <= speed,
                 _ => false,
             };
-            // (one whose speed the tracking ones' system cannot take stays: `Engage::Conflict`)
-            if engage {
-                changed |= !matches!(self.motor_engage(ci)?, Engage::Conflict(_));
+            // (one whose speed the tracking ones' system cannot take stays, untried until a motor
+            // or command changes)
+            if engage && !self.core.motor.conflicted[ci] {
+                let conflict = self.motor_engage(ci)?.is_some();
+                self.core.motor.conflicted[ci] = conflict;
+                self.core.stats.motor_conflicts += u64::from(conflict);
+                changed |= !conflict;
             }
         }
         if changed {
+            self.core.motor.conflicted.fill(false);
             self.core.history.forget();
             self.restart_accelerations()?;
         }
         Ok(changed)
     }
-}
-
-/// What engaging a motor did (`Simulator::motor_engage`).
-enum Engage {
-    /// It tracks its speed.
-    Tracking,
-    /// The structure cannot move along its cable: it pulls at its limit.
-    AtLimit,
-    /// With the motors tracking already its speed would ask one motion for two (their system
-    /// singular, the error naming the cables): nothing changed.
-    Conflict(SolverError),
 }
