@@ -20,6 +20,10 @@ pub struct SolverStats {
     /// Fixed-point iterations over all Newmark steps (each one constrained
     /// solve), Newton iterations included.
     pub newmark_iterations: u64,
+    /// Newmark iterations that went on with Newton steps where the plain
+    /// iteration stopped contracting (the friction blend, stiff springs):
+    /// the method's own route, not a fallback (its failures are).
+    pub newton_switches: u64,
     /// Newton steps (directions) of Newmark iterations switched to Newton,
     /// the GMRES iterations computing them (one constrained solve each), and
     /// the halvings of their line search.
@@ -99,9 +103,8 @@ pub struct Fallbacks {
     /// missed its ledger's budget (`ledger_budget_rel_per_s`) and was
     /// accepted: the step-size control stops there.
     pub ledger_budget_exceeded: u64,
-    /// A Newmark iteration that stopped contracting went on with Newton steps.
-    pub newmark_newton: u64,
-    /// ... whose line search gave up (`newmark_newton_line_search_max`,
+    /// Newton steps of a Newmark iteration (`newton_switches`) whose line
+    /// search gave up (`newmark_newton_line_search_max`,
     /// `newmark_newton_min_step`): the plain iteration went on from the best
     /// iterate, with its own fallbacks.
     pub newmark_newton_failed: u64,
@@ -181,10 +184,10 @@ impl SolverStats {
         let f = &self.fallbacks;
         format!(
             "{} steps, {} sub-steps, {} Newmark steps ({:.2} iterations each), \
-             {} Newton steps ({} GMRES iterations, {} backtracks), \
+             {} Newton switches, {} Newton steps ({} GMRES iterations, {} backtracks), \
              {} factorizations ({} reused, {} probes), {} solves ({:.2} iterations each; {} factored inside, {} with a kept one), \
              {} latch searches ({} trial steps), {} latches, {} restart sub-steps taken backward-Euler, {} sub-steps cut at contacts, {} halved on their ledger's budget; fallbacks: {} halvings ({} at blend entries, {} for energy, {} accepted making energy, {} over their ledger's budget at the shortest), \
-             {} blend entries taken again backward-Euler, {} Newton switches ({} failed, {} retried with secant slopes), {} Newmark min-norm, {} lagged friction, {} projection min-norm, {} velocity min-norm, \
+             {} blend entries taken again backward-Euler, {} Newton switches failed ({} retried with secant slopes), {} Newmark min-norm, {} lagged friction, {} projection min-norm, {} velocity min-norm, \
              {} refactored, {} re-probed, {} least-squares, {} unconverged solves, \
              {} dips rejected, {} root searches at their limit, \
              {} inertia fixed points unconverged, {} latches unsettled at their limit, \
@@ -193,6 +196,7 @@ impl SolverStats {
             self.substeps,
             self.newmark_steps,
             self.newmark_iterations as f64 / self.newmark_steps.max(1) as f64,
+            self.newton_switches,
             self.newton_steps,
             self.newton_krylov_iterations,
             self.newton_backtracks,
@@ -215,7 +219,6 @@ impl SolverStats {
             f.substep_energy_accepted,
             f.ledger_budget_exceeded,
             f.blend_entry_backward_euler,
-            f.newmark_newton,
             f.newmark_newton_failed,
             f.newmark_newton_secant,
             f.newmark_min_norm,

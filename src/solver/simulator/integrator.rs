@@ -417,7 +417,7 @@ impl Core {
                 newton_for_friction = friction;
                 newton = true;
                 tried_newton = true;
-                self.stats.fallbacks.newmark_newton += 1;
+                self.stats.newton_switches += 1;
                 self.newton_start(model, h, st)?;
                 continue;
             }
