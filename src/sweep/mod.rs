@@ -197,6 +197,9 @@ pub fn run_sample(sweep: &Sweep, index: u64, gen: &Generator, max_wall_s: Option
     }
 }
 
+/// Without a terminal, the shortest interval between progress lines (s).
+const LOG_EVERY_S: f64 = 10.0;
+
 /// How to run a sweep.
 #[derive(Clone, Copy, Debug)]
 pub struct RunOptions {
@@ -251,6 +254,11 @@ pub fn run_samples(
         ));
     }
     let max_wall_s = opts.max_wall_s.or(sweep.max_wall_s);
+    // (without a terminal, as in a log file or a cluster job: a plain line at most every
+    // `LOG_EVERY_S`, and at the last sample)
+    let log = std::sync::Mutex::new((0u64, std::time::Instant::now()));
+    let started = std::time::Instant::now();
+    let total = todo.len() as u64;
     let errors: Vec<String> = pool.install(|| {
         todo.par_iter()
             .with_max_len(1)
@@ -258,6 +266,19 @@ pub fn run_samples(
                 let row = run_sample(sweep, i, gen, max_wall_s);
                 let text = serde_json::to_string(&row).expect("row serializes") + "\n";
                 bar.inc(1);
+                if !opts.progress {
+                    let mut l = log.lock().unwrap_or_else(|e| e.into_inner());
+                    l.0 += 1;
+                    if l.0 == total || l.1.elapsed().as_secs_f64() >= LOG_EVERY_S {
+                        l.1 = std::time::Instant::now();
+                        eprintln!(
+                            "{}/{total} samples run, {:.0} s elapsed (sample {i}: {})",
+                            l.0,
+                            started.elapsed().as_secs_f64(),
+                            row.stop_reason
+                        );
+                    }
+                }
                 write_row(&sample_path(dir, i), text.as_bytes())
                     .err()
                     .map(|f| f.message)

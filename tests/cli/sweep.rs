@@ -97,6 +97,12 @@ fn mast_rows_summary_and_rerun_bit_for_bit() {
         "2".as_ref(),
     ]);
     assert!(o.status.success(), "{}", text(&o));
+    // (no terminal: progress as plain lines, the last one at the last sample)
+    assert!(
+        String::from_utf8_lossy(&o.stderr).contains("8/8 samples run"),
+        "{}",
+        text(&o)
+    );
     let r = rows(&out);
     assert_eq!(
         r.keys().copied().collect::<Vec<_>>(),
