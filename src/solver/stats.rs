@@ -76,8 +76,8 @@ pub struct SolverStats {
     pub motor_releases: u64,
     pub motor_engagements: u64,
     /// Engagements of a released motor refused because the tracking motors' system could not
-    /// take its speed (two speeds on one motion); each is tried again only after a motor or
-    /// command changes.
+    /// take its speed (two speeds on one motion); one is tried again at the next step, or
+    /// after a motor releases or engages.
     pub motor_conflicts: u64,
 }
 

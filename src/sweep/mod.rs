@@ -258,7 +258,7 @@ pub fn run_samples(
     // `LOG_EVERY_S`, and at the last sample)
     let log = std::sync::Mutex::new((0u64, std::time::Instant::now()));
     let started = std::time::Instant::now();
-    let total = todo.len() as u64;
+    let (total, of) = (todo.len() as u64, mine.len());
     let errors: Vec<String> = pool.install(|| {
         todo.par_iter()
             .with_max_len(1)
@@ -272,8 +272,8 @@ pub fn run_samples(
                     if l.0 == total || l.1.elapsed().as_secs_f64() >= LOG_EVERY_S {
                         l.1 = std::time::Instant::now();
                         eprintln!(
-                            "{}/{total} samples run, {:.0} s elapsed (sample {i}: {})",
-                            l.0,
+                            "{}/{of} samples have rows, {:.0} s elapsed (sample {i}: {})",
+                            done + l.0,
                             started.elapsed().as_secs_f64(),
                             row.stop_reason
                         );

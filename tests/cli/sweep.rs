@@ -99,7 +99,7 @@ fn mast_rows_summary_and_rerun_bit_for_bit() {
     assert!(o.status.success(), "{}", text(&o));
     // (no terminal: progress as plain lines, the last one at the last sample)
     assert!(
-        String::from_utf8_lossy(&o.stderr).contains("8/8 samples run"),
+        String::from_utf8_lossy(&o.stderr).contains("8/8 samples have rows"),
         "{}",
         text(&o)
     );

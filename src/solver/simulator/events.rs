@@ -265,7 +265,7 @@ impl Simulator {
 
     /// One latch-search trial step of length h, in least squares: trials lie just short of a latch,
     /// typically the flat deployed state, where redundant rows are only nearly redundant. One that
-    /// fails fails the sub-step, which is retried shorter.
+    /// fails fails the sub-step: retried shorter down to `min_substep_fraction`, else the error.
     fn search_step(&mut self, h: f64) -> Result<(), SolverError> {
         self.core.stats.latch_search_steps += 1;
         let (model, st) = (&self.model, &self.settings);

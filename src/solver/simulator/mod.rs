@@ -103,7 +103,6 @@ impl Simulator {
         core.element_springs.release_latches(None);
         core.waiting.clear();
         core.motor.take_modes(&state);
-        core.motor.conflicted.fill(false);
         core.set_pattern(model, &state.locked);
         core.x.copy_from_slice(&model.x0);
         if let Some((e, row, residual_m)) = model.initial_violation(st.initial_tol_m) {
@@ -267,10 +266,10 @@ impl Simulator {
 
     /// `step`'s stages, per sub-step: the trial and its gates (`trial`), the
     /// latches inside it (`finish_substep`), the motors
-    /// (`motors_after_substep`). The one retry route is the sub-step's
-    /// length: cut by a failure or a gate, doubled back after a sub-step
-    /// that used at most a quarter of its ledger budget (doubling h
-    /// multiplies the miss by 8 and its budget by 2).
+    /// (`motors_after_substep`). The one retry route is the sub-step: cut by
+    /// a failure or a gate, or taken again under the backward-Euler rule;
+    /// doubled back after one that used at most a quarter of its ledger
+    /// budget (doubling h multiplies the miss by 8 and its budget by 2).
     fn step_stages(&mut self, dt: f64) -> Result<usize, SolverError> {
         if !(dt.is_finite() && dt > 0.0) {
             return Err(SolverError::Invalid(format!(
@@ -279,6 +278,7 @@ impl Simulator {
         }
         // (a step that failed inside left its last trial's rule)
         self.core.backward_euler = false;
+        self.core.motor.conflicted.fill(false);
         if self.command_changed {
             self.restart_accelerations()?;
         }
@@ -391,7 +391,8 @@ impl Simulator {
         // transient, which the average acceleration leaves ringing
         // (docs/solver.md, Sub-steps). Elastic members: the same h under the
         // backward-Euler rule, amplification 1 / (1 + 2x) against
-        // (1 - x) / (1 + x), its own term booked (`integrator_work_j`); rigid
+        // (1 - x) / (1 + x), x = h r / 2 for the transient's rate r, its own
+        // term booked (`integrator_work_j`); rigid
         // members, whose projections that term does not cover: h halved.
         if self.core.blend_entry && !self.core.backward_euler {
             if st.elastic_members {

@@ -26,8 +26,8 @@ use crate::solver::SolverError;
 pub(super) struct MotorWork {
     /// Per cable: the reel-in speed while it tracks in the trial (m/s), else None.
     pub speed_m_s: Vec<Option<f64>>,
-    /// Per cable: its engagement conflicted with the tracking motors; not tried again until a
-    /// motor or command changes (`motor_engage`).
+    /// Per cable: its engagement conflicted with the tracking motors (a singular system depends on
+    /// the configuration): not tried again in this step unless a motor releases or engages.
     pub conflicted: Vec<bool>,
     /// Per cable: the length it holds at the trial's end (m), while it tracks.
     pub target_m: Vec<f64>,
@@ -413,7 +413,6 @@ impl Simulator {
             }
         }
         self.core.motor.take_modes(&self.state);
-        self.core.motor.conflicted.fill(false);
         self.command_changed = true;
         Ok(())
     }
@@ -534,8 +533,8 @@ impl Simulator {
                 MotorHold::Slack => reel_in <= speed,
                 _ => false,
             };
-            // (one whose speed the tracking ones' system cannot take stays, untried until a motor
-            // or command changes)
+            // (one whose speed the tracking ones' system cannot take stays, untried in this step
+            // unless a motor changes)
             if engage && !self.core.motor.conflicted[ci] {
                 let conflict = self.motor_engage(ci)?.is_some();
                 self.core.motor.conflicted[ci] = conflict;
