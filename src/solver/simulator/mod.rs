@@ -99,7 +99,6 @@ impl Simulator {
         let core = &mut self.core;
         core.history.forget();
         core.backward_euler = false;
-        core.blend_start_held = false;
         core.element_springs.release_latches(None);
         core.waiting.clear();
         core.motor.take_modes(&state);
