@@ -52,6 +52,7 @@
 
 use crate::solver::checks::RunChecks;
 use crate::solver::elements::{ElementSpec, Param};
+use crate::solver::model::ModelPart;
 use crate::solver::{Cable, Joint, Model, ModelParts, SolverError, SolverSettings};
 use serde::Deserialize;
 use std::collections::BTreeMap;
@@ -605,17 +606,13 @@ pub fn parse(text: &str, file: &str) -> Result<LoadedModel, ModelFileError> {
         end_time_s: s.end_time_s,
         axial_stiffness_n: s.axial_stiffness_n,
     };
-    let mut model = Model::build(parts).map_err(|(i, e)| {
-        let msg = e.to_string();
-        // Model::build reports element errors by element index, cable errors by cable index.
-        let span = if msg.starts_with("element") {
-            element_spans.get(i).cloned()
-        } else if msg.starts_with("cable") {
-            cable_spans.get(i).cloned()
-        } else {
-            None
+    let mut model = Model::build(parts).map_err(|e| {
+        let span = match e.at {
+            ModelPart::Element(i) => element_spans.get(i).cloned(),
+            ModelPart::Cable(i) => cable_spans.get(i).cloned(),
+            ModelPart::Joints | ModelPart::Settings => None,
         };
-        err(span, msg)
+        err(span, e.what)
     })?;
     model.solver = spec.solver.map(Spanned::into_inner).unwrap_or_default();
     let limit_m = model.solver.initial_tol_m;

@@ -23,7 +23,7 @@ use super::elements::at;
 use super::model::Cable;
 use super::vec3::Vec3;
 
-#[derive(Debug, Default)]
+#[derive(Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct CableEval {
     pub segment_length_m: Vec<f64>,
     pub segment_tension_n: Vec<f64>,

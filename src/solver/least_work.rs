@@ -41,7 +41,9 @@ use super::SolverError;
 
 /// A backend instance of its own (the stepping solver's kept factorizations,
 /// counters and re-probe schedule are untouched, so the trajectory does not
-/// depend on how often forces are asked for) and the row-scaled Jacobian.
+/// depend on how often forces are asked for), factored afresh for every
+/// split (which then depends on its inputs alone), and the row-scaled
+/// Jacobian.
 pub struct LeastWork {
     solver: Box<dyn ConstraintSolver>,
     jac: Jacobian,
@@ -146,6 +148,9 @@ impl LeastWork {
             *d = fi * im;
         }
         self.jac.mul(&self.dx, &mut self.r);
+        // (a fresh factorization: the split depends on the state alone,
+        // not on the solves before it)
+        self.solver.forget();
         self.solver
             .factor(&self.jac, &model.inv_mass, SolveMode::MinNorm)?;
         self.solver.correction(

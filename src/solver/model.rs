@@ -4,7 +4,6 @@
 
 use super::elements::{self, Constraint, ElementSpec};
 use super::settings::SolverSettings;
-use super::SolverError;
 
 /// Default axial stiffness EA of every member (N) where neither the element nor
 /// `[settings] axial_stiffness_n` gives one: a carbon-fibre tube of 20 mm
@@ -148,12 +147,12 @@ pub struct ModelParts {
 impl Model {
     /// Builds the model, checking what the solver relies on. Errors name the
     /// offending item (`what`); the model-file layer adds file and line.
-    pub fn build(p: ModelParts) -> Result<Model, (usize, SolverError)> {
+    pub fn build(p: ModelParts) -> Result<Model, ModelError> {
         let n = p.joints.len();
-        let err = |i: usize, s: String| (i, SolverError::Invalid(s));
+        let err = |at: ModelPart, what: String| ModelError { at, what };
         if p.x0.len() != 3 * n || p.x0.iter().any(|v| !v.is_finite()) {
             return Err(err(
-                0,
+                ModelPart::Joints,
                 "joint positions must be 3 finite numbers per joint".into(),
             ));
         }
@@ -161,7 +160,7 @@ impl Model {
         for j in &p.joints {
             if !(j.mass_kg.is_finite() && j.mass_kg > 0.0) {
                 return Err(err(
-                    0,
+                    ModelPart::Joints,
                     format!(
                         "joint `{}` has mass {} kg; every joint needs a positive lumped mass",
                         j.name, j.mass_kg
@@ -175,7 +174,7 @@ impl Model {
         for (i, spec) in p.elements.iter().enumerate() {
             if let Some(&bad) = spec.joints.iter().find(|&&j| j >= n) {
                 return Err(err(
-                    i,
+                    ModelPart::Element(i),
                     format!(
                         "element `{}` refers to joint index {bad}, but there are {n} joints",
                         spec.name
@@ -185,7 +184,7 @@ impl Model {
             for (a, ja) in spec.joints.iter().enumerate() {
                 if spec.joints[..a].contains(ja) {
                     return Err(err(
-                        i,
+                        ModelPart::Element(i),
                         format!(
                             "element `{}` names joint `{}` twice",
                             spec.name, p.joints[*ja].name
@@ -193,19 +192,21 @@ impl Model {
                     ));
                 }
             }
-            elems
-                .push(elements::build(spec, &p.x0).map_err(|e| {
-                    err(i, format!("element `{}` ({}): {e}", spec.name, spec.kind))
-                })?);
+            elems.push(elements::build(spec, &p.x0).map_err(|e| {
+                err(
+                    ModelPart::Element(i),
+                    format!("element `{}` ({}): {e}", spec.name, spec.kind),
+                )
+            })?);
         }
         for (i, c) in p.cables.iter().enumerate() {
             if c.path.len() < 2 {
-                return Err(err(i, format!("cable `{}` has a path of {} joint(s); it needs at least 2 (motor end, anchored end)", c.name, c.path.len())));
+                return Err(err(ModelPart::Cable(i), format!("cable `{}` has a path of {} joint(s); it needs at least 2 (motor end, anchored end)", c.name, c.path.len())));
             }
             for w in c.path.windows(2) {
                 if w[0] == w[1] || w.iter().any(|&j| j >= n) {
                     return Err(err(
-                        i,
+                        ModelPart::Cable(i),
                         format!(
                             "cable `{}`: consecutive path joints must be distinct existing joints",
                             c.name
@@ -215,7 +216,7 @@ impl Model {
                 let l = (elements::at(&p.x0, w[1]) - elements::at(&p.x0, w[0])).norm();
                 if l < 1e-9 {
                     return Err(err(
-                        i,
+                        ModelPart::Cable(i),
                         format!(
                             "cable `{}`: the segment {} -> {} has zero length",
                             c.name, p.joints[w[0]].name, p.joints[w[1]].name
@@ -232,11 +233,11 @@ impl Model {
                 c.slip_speed_m_s,
             ];
             if nums.iter().any(|v| !v.is_finite() || *v < 0.0) || c.slip_speed_m_s <= 0.0 {
-                return Err(err(i, format!("cable `{}`: tensions, friction, density and radius must be finite and >= 0, and the slip speed > 0", c.name)));
+                return Err(err(ModelPart::Cable(i), format!("cable `{}`: tensions, friction, density and radius must be finite and >= 0, and the slip speed > 0", c.name)));
             }
             if c.tension_n > c.max_tension_n {
                 return Err(err(
-                    i,
+                    ModelPart::Cable(i),
                     format!(
                         "cable `{}`: tension {} N exceeds its max_tension_n {} N",
                         c.name, c.tension_n, c.max_tension_n
@@ -247,14 +248,14 @@ impl Model {
         if let Some(r) = &p.reference {
             if r.len() != 3 * n || r.iter().any(|v| !v.is_finite()) {
                 return Err(err(
-                    0,
+                    ModelPart::Joints,
                     "reference positions must be 3 finite numbers for every joint".into(),
                 ));
             }
         }
         if !(p.dt_s.is_finite() && p.dt_s > 0.0 && p.end_time_s.is_finite() && p.end_time_s > 0.0) {
             return Err(err(
-                0,
+                ModelPart::Settings,
                 format!(
                     "dt_s = {} and end_time_s = {} must be positive",
                     p.dt_s, p.end_time_s
@@ -265,14 +266,14 @@ impl Model {
             || p.gravity_m_s2.iter().any(|g| !g.is_finite())
         {
             return Err(err(
-                0,
+                ModelPart::Settings,
                 "damping must be finite and >= 0, gravity finite".into(),
             ));
         }
         let axial_stiffness_n = p.axial_stiffness_n.unwrap_or(DEFAULT_AXIAL_STIFFNESS_N);
         if !(axial_stiffness_n.is_finite() && axial_stiffness_n > 0.0) {
             return Err(err(
-                0,
+                ModelPart::Settings,
                 format!("axial_stiffness_n = {axial_stiffness_n} N must be positive and finite"),
             ));
         }
@@ -387,3 +388,32 @@ impl Model {
             .sum()
     }
 }
+
+/// A model the solver cannot build (`Model::build`): which part, and what is
+/// wrong with it (the model-file layer adds the file and the line).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ModelError {
+    pub at: ModelPart,
+    pub what: String,
+}
+
+/// Where in a model an error is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ModelPart {
+    /// The joints (their positions, masses or reference positions).
+    Joints,
+    /// The element of this index.
+    Element(usize),
+    /// The cable of this index.
+    Cable(usize),
+    /// The model-wide settings (step, end time, damping, gravity, stiffness).
+    Settings,
+}
+
+impl std::fmt::Display for ModelError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.what)
+    }
+}
+
+impl std::error::Error for ModelError {}

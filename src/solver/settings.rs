@@ -315,7 +315,7 @@ impl SolverSettings {
     /// Checks that every number is usable: finite and positive tolerances,
     /// iteration limits of at least 1, fractions below 1. The message names
     /// the key.
-    pub fn validate(&self) -> Result<(), String> {
+    pub fn validate(&self) -> Result<(), SettingsError> {
         let positive = [
             ("projection_tol_m", self.projection_tol_m),
             ("member_relaxation_s", self.member_relaxation_s),
@@ -366,18 +366,15 @@ impl SolverSettings {
             ("rigid_row_compliance_rel", self.rigid_row_compliance_rel),
             ("motor_pivot_rel", self.motor_pivot_rel),
         ];
+        let bad = |key, value, rule| Err(SettingsError { key, value, rule });
         for (key, v) in positive {
             if !(v.is_finite() && v > 0.0) {
-                return Err(format!(
-                    "[solver] {key} = {v}: it must be a finite number > 0"
-                ));
+                return bad(key, v, SettingsRule::Positive);
             }
         }
         if !(self.ledger_budget_rel_per_s.is_finite() && self.ledger_budget_rel_per_s >= 0.0) {
-            return Err(format!(
-                "[solver] ledger_budget_rel_per_s = {}: it must be a finite number >= 0 (0: no control)",
-                self.ledger_budget_rel_per_s
-            ));
+            let v = self.ledger_budget_rel_per_s;
+            return bad("ledger_budget_rel_per_s", v, SettingsRule::NonNegative);
         }
         for (key, v) in [
             (
@@ -404,7 +401,7 @@ impl SolverSettings {
             ("motor_pivot_rel", self.motor_pivot_rel),
         ] {
             if v >= 1.0 {
-                return Err(format!("[solver] {key} = {v}: it must be below 1"));
+                return bad(key, v, SettingsRule::BelowOne);
             }
         }
         let counts = [
@@ -423,9 +420,45 @@ impl SolverSettings {
         ];
         for (key, v) in counts {
             if v == 0 {
-                return Err(format!("[solver] {key} = 0: it must be at least 1"));
+                return bad(key, 0.0, SettingsRule::AtLeastOne);
             }
         }
         Ok(())
     }
 }
+
+/// A `[solver]` setting that breaks its rule (`SolverSettings::validate`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct SettingsError {
+    pub key: &'static str,
+    pub value: f64,
+    pub rule: SettingsRule,
+}
+
+/// What a `[solver]` number must be.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SettingsRule {
+    Positive,
+    NonNegative,
+    BelowOne,
+    AtLeastOne,
+}
+
+impl std::fmt::Display for SettingsError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let (key, v) = (self.key, self.value);
+        match self.rule {
+            SettingsRule::Positive => {
+                write!(f, "[solver] {key} = {v}: it must be a finite number > 0")
+            }
+            SettingsRule::NonNegative => write!(
+                f,
+                "[solver] {key} = {v}: it must be a finite number >= 0 (0: no control)"
+            ),
+            SettingsRule::BelowOne => write!(f, "[solver] {key} = {v}: it must be below 1"),
+            SettingsRule::AtLeastOne => write!(f, "[solver] {key} = 0: it must be at least 1"),
+        }
+    }
+}
+
+impl std::error::Error for SettingsError {}

@@ -4,10 +4,11 @@
 
 use super::cable::CableEval;
 use super::model::Model;
+use serde::{Deserialize, Serialize};
 
 /// One sleeve latching: when, how hard, and the kinetic energy the inelastic
 /// latch took out of the structure.
-#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct LockEvent {
     pub element: usize,
     pub name: String,
@@ -48,7 +49,7 @@ impl LockEvent {
 
 /// A compliant latch while its engagement transient lasts: a spring-damper
 /// about the lock length, tension T = k (l - L_lock) + c ldot.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct LatchTransient {
     pub element: usize,
     /// Index of its event in `State::locks`.
@@ -86,7 +87,7 @@ pub struct LatchTransient {
 }
 
 /// How a cable's motor holds it.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum MotorHold {
     /// At the commanded tension (`State::cable_tension_cmd_n`).
@@ -102,7 +103,7 @@ pub enum MotorHold {
 
 /// A drive cable's motor: tension control (the default) or speed control
 /// (`Simulator::set_cable_speed`).
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct MotorState {
     /// The reel-in speed commanded (m/s; negative pays out), None under
     /// tension control.
@@ -118,7 +119,7 @@ pub struct MotorState {
 /// element_spring_energy + member_strain_energy = cable_work +
 /// gravity_work + integrator_work - damping_loss - lock_loss -
 /// latch_damping_loss - member_damping_loss.
-#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Energy {
     /// Work of the motors: motor tension times the cable length reeled in.
     pub motor_work_j: f64,
@@ -173,40 +174,152 @@ impl Energy {
     }
 }
 
-#[derive(Clone, Debug)]
+/// Everything a step carries to the next, as MuJoCo's mjData: written only
+/// by the stages of `Simulator::step` (each field names the one that writes
+/// it) and by the caller's commands, read by the next step. With the
+/// solver's counters and the backends' kept factorizations it makes a
+/// `Snapshot` (`Simulator::save`, `restore`): a run continued from one is
+/// the run that never stopped, to the bit.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct State {
+    /// Time (s). `ledger::accept` (each sub-step), `step` (its end).
     pub t_s: f64,
+    /// Joint positions, velocities and accelerations (m, m/s, m/s^2; 3 per
+    /// joint). `ledger::accept` (the trial's), the latch's velocity jump
+    /// (`impact::lock_rigidly`), a motor's engagement (`v`), a restart (`a`).
     pub x: Vec<f64>,
     pub v: Vec<f64>,
     pub a: Vec<f64>,
-    /// Per element; only lockable elements ever become true.
+    /// Per element; only lockable elements ever become true. `impact`.
     pub locked: Vec<bool>,
     /// Motor-end tension commanded per cable (N); a speed-controlled motor
-    /// released to its limit or slack holds that tension here.
+    /// released to its limit or slack holds that tension here. Commands
+    /// (`set_cable_tension`, `set_cable_speed`), `motor` (releases).
     pub cable_tension_cmd_n: Vec<f64>,
-    /// Per cable, its motor's mode (tension or speed control).
+    /// Per cable, its motor's mode (tension or speed control). Commands, `motor`.
     pub motors: Vec<MotorState>,
     /// Per cable, the last evaluation: segment lengths and tensions (the
     /// motor's tension is `segment_tension_n[0]`), wraps, sliding speeds.
+    /// `ledger::accept`, a restart.
     pub cables: Vec<CableEval>,
     /// Lagrange multipliers of the active rows (row order of the current Jacobian).
     /// With redundant rows the split is statically indeterminate: the dense
     /// solver gives the minimum-norm one, the sparse solver one that leaves the
     /// rows it found redundant at zero (both give the same joint forces A^T lambda).
     /// `Simulator::least_work_multipliers` gives the least-work split with
-    /// either (what the node publishes as sleeve forces).
+    /// either (what the node publishes as sleeve forces). `ledger::accept`, a restart.
     pub lambda: Vec<f64>,
+    /// The energy ledger. `ledger`, `impact` (latch losses), `motor` (an engagement's jump).
     pub energy: Energy,
+    /// Latch events so far, in order. `impact`.
     pub locks: Vec<LockEvent>,
-    /// Compliant latches engaged and not yet settled (rigid).
+    /// Compliant latches engaged and not yet settled (rigid). `impact`, `ledger::accept`.
     pub transients: Vec<LatchTransient>,
-    /// Largest |Phi| seen after any step (m).
+    /// Largest |Phi| seen after any step (m). `ledger::accept`.
     pub max_violation_m: f64,
-    /// Mechanisms (3n - rank A) of the current constraint set, at the last check.
+    /// Mechanisms (3n - rank A) of the current constraint set, at the last check. `impact`.
     pub mechanisms: usize,
+    /// Deployed, and when (s). `impact`.
     pub deployed: bool,
     pub deploy_time_s: Option<f64>,
+    /// Steps taken. `step`.
     pub steps: u64,
+    /// What the integrator carries from a sub-step to the next.
+    pub carry: Carry,
+}
+
+/// What the integrator carries from one sub-step to the next beside the
+/// physical state (part of `State`).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Carry {
+    /// The Newmark predictor's history. `ledger::accept` (push), a latch, a
+    /// motor's change or a reset (forget), a command's restart (shift).
+    pub accel_history: AccelHistory,
+    /// The last Newmark trial needed Newton steps: the next starts them at
+    /// once. `integrator::newmark_iterate` (every trial, accepted or not).
+    pub newton_last: bool,
+    /// Elastic members: backward-Euler sub-steps still to take after a
+    /// restart (docs/solver.md, Elastic members, Restarts). Set by every
+    /// restart (`consistent_accelerations`), counted down by `ledger::accept`.
+    pub restart_substeps_left: usize,
+    /// Per cable, the pulley sliding speeds a friction-blend entry is judged
+    /// from (`friction_blend_entered`): a trial's start, or, while
+    /// `blend_start_held`, the restart's, held through the sub-step after the
+    /// restart's backward-Euler ones. `integrator::newmark` (not held),
+    /// `ledger::accept` (held), a restart (released).
+    pub blend_start: Vec<Vec<f64>>,
+    pub blend_start_held: bool,
+    /// Elastic members: the members' joint forces A^T lambda at the state
+    /// (N), whose trapezoid work the ledger books. A restart, `ledger::accept`.
+    pub member_force_n: Vec<f64>,
+    /// Rigid members: compliant latches reached while others engage, along
+    /// which the structure cannot move; they latch rigid once the transients
+    /// are over. `impact::latch` (adds), `impact::latch_waiting` (empties).
+    pub waiting: Vec<WaitingLatch>,
+    /// A cable command changed since the state's accelerations were computed:
+    /// the next step restarts from A(t_n+). Commands (set), `step` (cleared).
+    pub command_changed: bool,
+    /// The last trial that made energy and was halved: the ledger gate's
+    /// memory of whether halving helps. The ledger gate (`trial_ledger`).
+    pub made_energy_halved: Option<MadeEnergyHalving>,
+}
+
+/// A compliant latch waiting for the others' transients (`Carry::waiting`).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct WaitingLatch {
+    pub element: usize,
+    /// When it reached its lock (s).
+    pub reached_s: f64,
+    /// The sign of its gap before it reached its lock (0 if unknown).
+    pub side: f64,
+}
+
+/// A trial sub-step that made energy and was halved (`Carry::made_energy_halved`).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct MadeEnergyHalving {
+    pub h_s: f64,
+    pub miss_j: f64,
+}
+
+/// The accelerations at the starts of the last accepted sub-steps, newest
+/// first (A_{n-1} .. A_{n-4}), and those sub-steps' lengths (None: no
+/// extrapolation across a velocity jump, a latch or a reset).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct AccelHistory {
+    pub a: [Vec<f64>; 4],
+    pub h: [Option<f64>; 4],
+}
+
+impl AccelHistory {
+    pub fn new(n: usize) -> AccelHistory {
+        AccelHistory {
+            a: std::array::from_fn(|_| vec![0.0; n]),
+            h: [None; 4],
+        }
+    }
+
+    /// After an accepted sub-step of length h that started from `a`.
+    pub fn push(&mut self, a: &[f64], h: f64) {
+        self.a.rotate_right(1);
+        self.h.rotate_right(1);
+        self.a[0].copy_from_slice(a);
+        self.h[0] = Some(h);
+    }
+
+    /// No extrapolation across what just happened.
+    pub fn forget(&mut self) {
+        self.h[0] = None;
+    }
+
+    /// A command's jump of the accelerations from `before` to `after`,
+    /// which persists: every entry shifted by it.
+    pub fn shift(&mut self, before: &[f64], after: &[f64]) {
+        for a in &mut self.a {
+            for ((a, b), c) in a.iter_mut().zip(before).zip(after) {
+                *a += c - b;
+            }
+        }
+    }
 }
 
 impl State {
@@ -242,6 +355,75 @@ impl State {
             deployed: false,
             deploy_time_s: None,
             steps: 0,
+            carry: Carry {
+                accel_history: AccelHistory::new(n),
+                blend_start: model
+                    .cables
+                    .iter()
+                    .map(|c| vec![0.0; c.path.len().saturating_sub(2)])
+                    .collect(),
+                member_force_n: vec![0.0; n],
+                ..Carry::default()
+            },
+        }
+    }
+
+    /// Whether every vector has the model's size (a snapshot to restore):
+    /// else the first that does not, as an error.
+    pub fn check_sizes(&self, model: &Model) -> Result<(), super::SolverError> {
+        let n = model.n_coords();
+        let (ne, nc) = (model.elements.len(), model.cables.len());
+        let rows = |locked: &[bool]| -> usize {
+            (model.elements.iter().zip(locked))
+                .map(|(el, &l)| el.rows(l))
+                .sum()
+        };
+        let mut sizes = vec![
+            ("x", self.x.len(), n),
+            ("v", self.v.len(), n),
+            ("a", self.a.len(), n),
+            ("locked", self.locked.len(), ne),
+            ("cable_tension_cmd_n", self.cable_tension_cmd_n.len(), nc),
+            ("motors", self.motors.len(), nc),
+            ("cables", self.cables.len(), nc),
+            ("carry.member_force_n", self.carry.member_force_n.len(), n),
+            ("carry.blend_start", self.carry.blend_start.len(), nc),
+        ];
+        if self.locked.len() == ne {
+            sizes.push(("lambda", self.lambda.len(), rows(&self.locked)));
+        }
+        for (k, a) in self.carry.accel_history.a.iter().enumerate() {
+            let field = [
+                "accel_history.a[0]",
+                "accel_history.a[1]",
+                "accel_history.a[2]",
+                "accel_history.a[3]",
+            ][k];
+            sizes.push((field, a.len(), n));
+        }
+        let elements = self.transients.iter().map(|t| t.element);
+        let bad_element = elements
+            .chain(self.locks.iter().map(|l| l.element))
+            .chain(self.carry.waiting.iter().map(|w| w.element))
+            .find(|&e| e >= ne);
+        let bad_event = self.transients.iter().any(|t| t.event >= self.locks.len());
+        if bad_element.is_some() || bad_event {
+            return Err(super::SolverError::Request(
+                super::RequestError::SnapshotIndex {
+                    element: bad_element,
+                    elements: ne,
+                },
+            ));
+        }
+        match sizes.into_iter().find(|(_, len, expected)| len != expected) {
+            Some((field, len, expected)) => Err(super::SolverError::Request(
+                super::RequestError::SnapshotSize {
+                    field,
+                    len,
+                    expected,
+                },
+            )),
+            None => Ok(()),
         }
     }
 
@@ -314,4 +496,39 @@ pub fn kinetic_energy_j(model: &Model, v: &[f64]) -> f64 {
         .zip(&model.mass)
         .map(|(v, m)| m * v * v)
         .sum::<f64>()
+}
+
+/// A simulation's complete state (`Simulator::save`): restored into a
+/// simulator of the same model (`Simulator::restore`), the run goes on as the
+/// one that never stopped, to the bit.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Snapshot {
+    /// The model it belongs to, checked by `restore`.
+    pub model: ModelKey,
+    pub state: State,
+    /// The solver's counters so far.
+    pub solver_stats: super::stats::SolverStats,
+    /// The stepping backend's kept factorizations, as the inputs they were
+    /// made from (`restore` makes them again).
+    pub kept: super::linsolve::Kept,
+}
+
+/// What identifies a model to a snapshot: its name and sizes.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ModelKey {
+    pub name: String,
+    pub coordinates: usize,
+    pub elements: usize,
+    pub cables: usize,
+}
+
+impl ModelKey {
+    pub fn of(model: &Model) -> ModelKey {
+        ModelKey {
+            name: model.name.clone(),
+            coordinates: model.n_coords(),
+            elements: model.elements.len(),
+            cables: model.cables.len(),
+        }
+    }
 }

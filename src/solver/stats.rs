@@ -7,7 +7,7 @@
 
 use serde::Serialize;
 
-#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize)]
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, serde::Deserialize)]
 pub struct SolverStats {
     /// `Simulator::step` calls completed.
     pub steps: u64,
@@ -82,7 +82,7 @@ pub struct SolverStats {
 }
 
 /// Fallbacks by kind (see each field).
-#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize)]
+#[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, serde::Deserialize)]
 pub struct Fallbacks {
     /// A Newmark iteration did not converge and the sub-step was halved.
     pub substep_halvings: u64,

@@ -531,7 +531,7 @@ fn model(x0: Vec<f64>, specs: Vec<ElementSpec>) -> Model {
         end_time_s: 1.0,
         axial_stiffness_n: None,
     })
-    .unwrap_or_else(|(i, e)| panic!("model build failed at item {i}: {e}"))
+    .unwrap_or_else(|e| panic!("model build failed at {:?}: {e}", e.at))
 }
 
 fn analyze_free(x0: Vec<f64>, specs: Vec<ElementSpec>) -> Mobility {

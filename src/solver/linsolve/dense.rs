@@ -20,7 +20,7 @@ use crate::solver::jacobian::Jacobian;
 use crate::solver::SolverError;
 use nalgebra::{DMatrix, DVector};
 
-use super::{FactorReport, SolveMode, SolveReport};
+use super::{FactorReport, Kept, SolveMode, SolveReport};
 
 #[derive(Default)]
 pub struct DenseNullSpace {
@@ -28,6 +28,8 @@ pub struct DenseNullSpace {
     vt: DMatrix<f64>,
     sigma: Vec<f64>,
     rank: usize,
+    /// What the SVD was made at (`Kept::Dense`).
+    kept: Kept,
 }
 
 impl DenseNullSpace {
@@ -85,6 +87,22 @@ impl ConstraintSolver for DenseNullSpace {
         } else {
             crate::solver::rank::numerical_rank(&self.sigma)
         };
+        match &mut self.kept {
+            Kept::Dense {
+                jac_values,
+                inv_mass: w,
+            } => {
+                jac_values.clone_from(&jac.values);
+                w.clear();
+                w.extend_from_slice(inv_mass);
+            }
+            other => {
+                *other = Kept::Dense {
+                    jac_values: jac.values.clone(),
+                    inv_mass: inv_mass.to_vec(),
+                }
+            }
+        }
         Ok(FactorReport {
             fresh: true,
             probed: false,
@@ -188,6 +206,28 @@ impl ConstraintSolver for DenseNullSpace {
         let m = self.u.columns(0, self.rank) * w;
         mu.copy_from_slice(&m.as_slice()[..mu.len()]);
         Ok(SolveReport::DIRECT)
+    }
+
+    fn kept(&self) -> Kept {
+        self.kept.clone()
+    }
+
+    fn restore_kept(&mut self, jac: &Jacobian, kept: &Kept) -> Result<(), SolverError> {
+        *self = DenseNullSpace::default();
+        if let Kept::Dense {
+            jac_values,
+            inv_mass,
+        } = kept
+        {
+            let mut at = jac.clone();
+            at.values.clone_from(jac_values);
+            self.factor(&at, inv_mass, SolveMode::Basic)?;
+        }
+        Ok(())
+    }
+
+    fn forget(&mut self) {
+        *self = DenseNullSpace::default();
     }
 
     fn rank(&self) -> Option<usize> {

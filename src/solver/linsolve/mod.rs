@@ -81,6 +81,23 @@ impl SolveReport {
     };
 }
 
+/// What a backend keeps between calls that its answers depend on (a kept
+/// factorization serves as a preconditioner, so the answers differ with it
+/// at roundoff), as the inputs it was made from: `restore_kept` makes it
+/// again from them, the same to the bit. Part of a `Snapshot`.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub enum Kept {
+    /// Nothing kept (a backend not yet factored).
+    #[default]
+    Nothing,
+    /// The dense backend: the Jacobian values and inverse masses of its SVD.
+    Dense {
+        jac_values: Vec<f64>,
+        inv_mass: Vec<f64>,
+    },
+    Sparse(sparse::SparseKept),
+}
+
 /// A backend for the solves with S = A M^-1 A^T. `factor` is asked for a
 /// factorization at the Jacobian values in `jac` in a given mode (it may serve
 /// a kept one); the solves that follow use it, whatever they need to redo
@@ -176,6 +193,14 @@ pub trait ConstraintSolver: Send {
     fn diagnostics(&self) -> String {
         String::new()
     }
+    /// What it keeps between calls (`Kept`).
+    fn kept(&self) -> Kept;
+    /// Makes the kept factorizations again from `kept`, for the block
+    /// structure of `jac` (its values are not used).
+    fn restore_kept(&mut self, jac: &Jacobian, kept: &Kept) -> Result<(), SolverError>;
+    /// Drops every kept factorization: the next solves depend on their
+    /// inputs alone.
+    fn forget(&mut self);
 }
 
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]

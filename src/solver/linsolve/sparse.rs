@@ -65,9 +65,9 @@
 //! basic factorization rejected.
 
 use super::static_ldlt::StaticLdlt;
-use super::{ConstraintSolver, FactorReport, SolveMode, SolveReport};
+use super::{ConstraintSolver, FactorReport, Kept, SolveMode, SolveReport};
 use crate::solver::jacobian::Jacobian;
-use crate::solver::SolverError;
+use crate::solver::{BackendError, SolverError};
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::linalg::cholesky::ldlt::factor::LdltRegularization;
 use faer::sparse::linalg::cholesky::{
@@ -142,6 +142,38 @@ struct Slot {
     valid: bool,
     age: usize,
     /// Most CG iterations a solve needed with this factorization.
+    worst_iterations: usize,
+}
+
+/// What the sparse backend keeps between calls (`Kept::Sparse`): the rows
+/// its probe kept, each valid factorization as the Jacobian values, inverse
+/// masses (and compliances) it was made from with its reuse record, and the
+/// re-probe schedule and counters.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct SparseKept {
+    kept_rows: Option<Vec<usize>>,
+    slots: Vec<Option<SlotKey>>,
+    compliant: Option<CompliantKey>,
+    active: usize,
+    rank: Option<usize>,
+    reprobe: bool,
+    next_reprobe: u64,
+    counters: [u64; 7],
+}
+
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+struct SlotKey {
+    jac_values: Vec<f64>,
+    inv_mass: Vec<f64>,
+    age: usize,
+    worst_iterations: usize,
+}
+
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+struct CompliantKey {
+    jac_values: Vec<f64>,
+    inv_mass: Vec<f64>,
+    d: Vec<f64>,
     worst_iterations: usize,
 }
 
@@ -544,7 +576,13 @@ impl SparseSchur {
             return Ok(());
         }
         let kept: Vec<usize> = (0..m).filter(|&i| kept_mask[i]).collect();
-        let reduced = Pattern::new(jac, &kept)?;
+        self.use_kept_rows(jac, &kept)
+    }
+
+    /// The pattern of S over the kept rows `kept` (ascending), and the basic
+    /// slots sized for it (invalid until factored).
+    fn use_kept_rows(&mut self, jac: &Jacobian, kept: &[usize]) -> Result<(), SolverError> {
+        let reduced = Pattern::new(jac, kept)?;
         for slot in &mut self.slots[..REGULARIZED_SLOT] {
             slot.l_vals = vec![0.0; reduced.len_val];
             slot.scale = vec![0.0; kept.len()];
@@ -553,6 +591,31 @@ impl SparseSchur {
         self.xr = vec![0.0; kept.len()];
         self.reduced = Some(reduced);
         Ok(())
+    }
+
+    /// The diagnostic counters, in `SparseKept`'s order.
+    fn counters(&self) -> [u64; 7] {
+        [
+            self.numeric_factorizations,
+            self.probes,
+            self.reused_factorizations,
+            self.solves,
+            self.cg_iterations,
+            self.reprobes,
+            self.inconsistent_solves,
+        ]
+    }
+
+    fn set_counters(&mut self, c: [u64; 7]) {
+        [
+            self.numeric_factorizations,
+            self.probes,
+            self.reused_factorizations,
+            self.solves,
+            self.cg_iterations,
+            self.reprobes,
+            self.inconsistent_solves,
+        ] = c;
     }
 
     /// Numeric factorization at the current Jacobian values into slot k, of the
@@ -999,9 +1062,9 @@ impl Pattern {
         }
         let nnz = pat.row_idx.len();
         if nnz > u32::MAX as usize || jac.values.len() > u32::MAX as usize {
-            return Err(SolverError::Invalid(
-                "constraint system too large for the sparse solver".into(),
-            ));
+            return Err(SolverError::Backend(BackendError::TooLarge {
+                entries: nnz.max(jac.values.len()),
+            }));
         }
         let pos = |i: usize, j: usize| -> usize {
             let lo = pat.col_ptr[j];
@@ -1039,7 +1102,11 @@ impl Pattern {
                 ..Default::default()
             },
         )
-        .map_err(|e| SolverError::Invalid(format!("sparse symbolic factorization: {e:?}")))?;
+        .map_err(|e| {
+            SolverError::Backend(BackendError::Symbolic {
+                detail: format!("{e:?}"),
+            })
+        })?;
         let req = StackReq::any_of(&[
             symbolic.factorize_numeric_ldlt_scratch::<f64>(Par::Seq, Default::default()),
             symbolic.solve_in_place_scratch::<f64>(1, Par::Seq),
@@ -1337,6 +1404,77 @@ impl ConstraintSolver for SparseSchur {
         let k = mu.len().min(self.lam.len());
         mu[..k].copy_from_slice(&self.lam[..k]);
         Ok(report)
+    }
+
+    fn kept(&self) -> Kept {
+        if !self.ready {
+            return Kept::Nothing;
+        }
+        let slots = self
+            .slots
+            .iter()
+            .map(|s| {
+                s.valid.then(|| SlotKey {
+                    jac_values: s.jac_values.clone(),
+                    inv_mass: s.inv_mass.clone(),
+                    age: s.age,
+                    worst_iterations: s.worst_iterations,
+                })
+            })
+            .collect();
+        let cs = &self.compliant;
+        Kept::Sparse(SparseKept {
+            kept_rows: self.reduced.as_ref().map(|r| r.rows.clone()),
+            slots,
+            compliant: cs.valid.then(|| CompliantKey {
+                jac_values: cs.jac_values.clone(),
+                inv_mass: cs.inv_mass.clone(),
+                d: cs.d.clone(),
+                worst_iterations: cs.worst_iterations,
+            }),
+            active: self.active,
+            rank: self.rank,
+            reprobe: self.reprobe,
+            next_reprobe: self.next_reprobe,
+            counters: self.counters(),
+        })
+    }
+
+    fn restore_kept(&mut self, jac: &Jacobian, kept: &Kept) -> Result<(), SolverError> {
+        *self = SparseSchur::default();
+        let Kept::Sparse(k) = kept else {
+            return Ok(());
+        };
+        self.setup(jac)?;
+        if let Some(rows) = &k.kept_rows {
+            self.use_kept_rows(jac, rows)?;
+        }
+        // (each factorization made again from its inputs: the same arithmetic)
+        let mut at = jac.clone();
+        for (slot, key) in k.slots.iter().enumerate() {
+            let Some(key) = key else { continue };
+            at.values.clone_from(&key.jac_values);
+            self.refactor(&at, &key.inv_mass, slot)?;
+            let s = &mut self.slots[slot];
+            (s.age, s.worst_iterations) = (key.age, key.worst_iterations);
+        }
+        if let Some(key) = &k.compliant {
+            at.values.clone_from(&key.jac_values);
+            self.refactor_compliant(&at, &key.inv_mass, &key.d)?;
+            self.compliant.worst_iterations = key.worst_iterations;
+        }
+        self.active = k.active;
+        self.rank = k.rank;
+        (self.reprobe, self.next_reprobe) = (k.reprobe, k.next_reprobe);
+        self.set_counters(k.counters);
+        Ok(())
+    }
+
+    fn forget(&mut self) {
+        for slot in &mut self.slots {
+            slot.valid = false;
+        }
+        self.compliant.valid = false;
     }
 
     fn rank(&self) -> Option<usize> {

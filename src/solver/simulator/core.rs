@@ -45,38 +45,23 @@ pub(super) struct Core {
     /// iteration takes the friction direction from them (`lagged_friction`).
     pub friction_sliding: Vec<Vec<f64>>,
     pub lagged_friction: bool,
-    /// Per cable, the sliding speeds a blend entry is judged from
-    /// (`friction_blend_entered`): the trial's start, or the restart's, held
-    /// through the sub-step after the restart's backward-Euler ones.
-    pub blend_start: Vec<Vec<f64>>,
-    pub blend_start_held: bool,
     /// The Newton steps take the friction's secant slopes back to the step
     /// start: their retry after a failed line search.
     pub newton_secant: bool,
     /// The trial is a backward-Euler step (beta = 1/2, gamma = 1) instead of
     /// the average acceleration (1/4, 1/2).
     pub backward_euler: bool,
-    /// Elastic members: backward-Euler sub-steps still to take after
-    /// accelerations solved at acceleration level (`consistent_accelerations`;
-    /// docs/solver.md, Elastic members, Restarts).
-    pub restart_substeps_left: usize,
     /// Buffers of the Newton steps of the Newmark iteration.
     pub newton: NewtonWork,
-    /// The last Newmark step needed Newton steps (`newton_last`: the next
-    /// starts them at once), and went through the friction blend's fast
-    /// transient (`blend_entry`, `blend_change_rel`).
+    /// The trial went through the friction blend's fast transient
+    /// (`blend_change_rel`).
     pub blend_entry: bool,
+    /// The trial's copy of `Carry::newton_last` (read at its start, written
+    /// where the iteration ends; `Simulator::newmark_trial` moves it).
     pub newton_last: bool,
-    /// The accelerations the Newmark predictor extrapolates from.
-    pub history: super::integrator::AccelHistory,
     /// The least-work split of redundant multipliers, with a backend of its
     /// own; made at first use.
     pub least_work: Option<LeastWork>,
-    /// Rigid members: compliant latches reached while others engage, along
-    /// which the structure cannot move, as (element, instant it reached its
-    /// lock s, sign of its gap before, 0 if unknown); they latch rigid once
-    /// the transients are over (`latch_waiting`).
-    pub waiting: Vec<(usize, f64, f64)>,
     /// The compliant elements' and engaged compliant latches' buffers.
     pub element_springs: crate::solver::springs::ElementSprings,
     /// Speed-controlled motors: which track in the current solve, and their buffers.
@@ -98,11 +83,10 @@ pub(super) struct Core {
     /// The members' relaxation time tau (s, `member_relaxation_s`).
     pub relaxation_s: f64,
     /// Elastic members: strain energy 1/2 sum Phi_i^2 / c_i at the trial's
-    /// end (J); their joint forces A^T lambda at the trial's end and at the
-    /// state (N), whose trapezoid work the ledger books.
+    /// end (J) and their joint forces A^T lambda there (N), whose trapezoid
+    /// work the ledger books (with `Carry::member_force_n`, the state's).
     pub strain_trial_j: f64,
     pub member_force_trial: Vec<f64>,
-    pub member_force_state: Vec<f64>,
 }
 
 impl Core {
@@ -133,22 +117,13 @@ impl Core {
                 .iter()
                 .map(|c| vec![0.0; c.path.len().saturating_sub(2)])
                 .collect(),
-            blend_start: model
-                .cables
-                .iter()
-                .map(|c| vec![0.0; c.path.len().saturating_sub(2)])
-                .collect(),
-            blend_start_held: false,
             lagged_friction: false,
             newton_secant: false,
             backward_euler: false,
-            restart_substeps_left: 0,
             blend_entry: false,
             newton_last: false,
             newton: NewtonWork::new(model.solver.newmark_newton_krylov_max, n, m),
-            history: super::integrator::AccelHistory::new(n),
             least_work: None,
-            waiting: Vec::new(),
             element_springs: crate::solver::springs::ElementSprings::new(model),
             motor: super::motor::MotorWork::new(model, m),
             stats: SolverStats::default(),
@@ -161,7 +136,6 @@ impl Core {
             relaxation_s: model.solver.member_relaxation_s,
             strain_trial_j: 0.0,
             member_force_trial: vec![0.0; n],
-            member_force_state: vec![0.0; n],
         };
         core.set_compliance(model);
         core
@@ -235,9 +209,10 @@ impl Core {
         (strain, worst)
     }
 
-    /// The state's member forces on the joints A^T lambda (Jacobian at the state).
-    pub fn store_state_member_forces(&mut self) {
-        self.jac.mul_t(&self.lambda, &mut self.member_force_state);
+    /// The state's member forces on the joints A^T lambda into `out`
+    /// (Jacobian and multipliers at the state).
+    pub fn state_member_forces(&self, out: &mut [f64]) {
+        self.jac.mul_t(&self.lambda, out);
     }
 
     /// The Jacobian pattern (and row-sized buffers) of a new locked set.

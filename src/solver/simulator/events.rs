@@ -92,7 +92,7 @@ impl Simulator {
         let iterations = st.dip_search_iterations;
         let mut best: Option<(f64, usize, f64)> = None;
         for &e in &model.locks {
-            if super::impact::held(s, c, e) {
+            if super::impact::held(s, e) {
                 continue;
             }
             let el = model.elements[e].as_ref();
@@ -172,7 +172,6 @@ impl Simulator {
         h: f64,
         s_hi: f64,
     ) -> Result<Option<f64>, SolverError> {
-        let st = &self.settings;
         let mode = SolveMode::MinNorm;
         self.core.stats.latch_searches += 1;
         let mut b = h;
@@ -180,7 +179,8 @@ impl Simulator {
             b = s_hi * h;
             self.core.stats.latch_search_steps += 1;
             // a failing check step fails the sub-step: a touch is never dropped unchecked
-            self.core.newmark(&self.model, &self.state, b, st, mode)?;
+            self.newmark_trial(b, mode)?;
+            let st = &self.settings;
             // an element crossed by then comes first (ring diagonals before radial sleeves touch)
             if let Some(other) = self.crossed_by(target) {
                 target = other;
@@ -268,16 +268,14 @@ impl Simulator {
     /// fails fails the sub-step: retried shorter down to `min_substep_fraction`, else the error.
     fn search_step(&mut self, h: f64) -> Result<(), SolverError> {
         self.core.stats.latch_search_steps += 1;
-        let (model, st) = (&self.model, &self.settings);
-        self.core
-            .newmark(model, &self.state, h, st, SolveMode::MinNorm)
+        self.newmark_trial(h, SolveMode::MinNorm)
     }
 
     /// Another unlocked element whose gap changed sign beyond the latch tolerance in this trial.
     fn crossed_by(&self, target: usize) -> Option<usize> {
         crossed_unlatched(
             &self.model,
-            &|e| super::impact::held(&self.state, &self.core, e),
+            &|e| super::impact::held(&self.state, e),
             &self.state.x,
             &self.core.x,
             self.settings.lock_tol_m,

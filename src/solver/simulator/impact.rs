@@ -16,7 +16,7 @@ use crate::solver::linsolve::SolveMode;
 use crate::solver::model::Model;
 use crate::solver::settings::SolverSettings;
 use crate::solver::springs::sleeve_motion_at;
-use crate::solver::state::{LatchTransient, LockEvent, State};
+use crate::solver::state::{Carry, LatchTransient, LockEvent, State, WaitingLatch};
 use crate::solver::SolverError;
 
 impl Core {
@@ -29,19 +29,19 @@ impl Core {
         &mut self,
         model: &Model,
         st: &SolverSettings,
-        cmd: &[f64],
+        (cmd, carry): (&[f64], &mut Carry),
         mode: SolveMode,
     ) -> Result<(), SolverError> {
         if st.elastic_members {
             // (elastic members keep their stretch: the latch is at its lock)
             self.factor(model, mode)?;
             self.elastic_velocity_jump(model)?;
-            return self.consistent_accelerations(model, cmd, st);
+            return self.consistent_accelerations(model, cmd, st, carry);
         }
         self.project_positions(model, st, mode)?;
         self.factor(model, mode)?;
         self.project_velocities(model, st, mode)?;
-        self.consistent_accelerations(model, cmd, st)
+        self.consistent_accelerations(model, cmd, st, carry)
     }
 
     /// The velocity jump of elastic members: V <- V + dV, dV = M^-1 A^T lambda with
@@ -86,8 +86,7 @@ impl Simulator {
             .iter()
             .copied()
             .filter(|&e| {
-                !held(&self.state, &self.core, e)
-                    && gap(model, e, &self.state.x).abs() <= st.latch_tol_m()
+                !held(&self.state, e) && gap(model, e, &self.state.x).abs() <= st.latch_tol_m()
             })
             .collect();
         if newly.is_empty() {
@@ -123,7 +122,7 @@ impl Simulator {
             // (the transients it retires may be the last open sleeves)
             self.stamp_deploy_time();
             if !self.state.transients.is_empty() {
-                self.core.history.forget();
+                self.state.carry.accel_history.forget();
                 self.restart_accelerations()?;
             }
             self.track_latch_rows();
@@ -136,10 +135,14 @@ impl Simulator {
             for &e in &immobile {
                 let g0 = gap(&self.model, e, &self.x_start);
                 let side = if g0.abs() > tol { g0.signum() } else { 0.0 };
-                self.core.waiting.push((e, t, side));
+                self.state.carry.waiting.push(WaitingLatch {
+                    element: e,
+                    reached_s: t,
+                    side,
+                });
             }
             // the dampers' force jumps in: accelerations from there
-            self.core.history.forget();
+            self.state.carry.accel_history.forget();
             self.restart_accelerations()?;
         }
         Ok(newly.len())
@@ -166,13 +169,16 @@ impl Simulator {
     /// Once no transient is left, the waiting compliant latches still at their lock latch rigid (at
     /// the instant they reached it); the others are free again. Returns how many latched.
     fn latch_waiting(&mut self) -> Result<usize, SolverError> {
-        if !self.state.transients.is_empty() || self.core.waiting.is_empty() {
+        if !self.state.transients.is_empty() || self.state.carry.waiting.is_empty() {
             return Ok(0);
         }
-        let waiting = std::mem::take(&mut self.core.waiting);
+        let waiting = std::mem::take(&mut self.state.carry.waiting);
         let tol = self.settings.latch_tol_m();
         let mut at_lock = Vec::new();
-        for &(e, _, side) in &waiting {
+        for &WaitingLatch {
+            element: e, side, ..
+        } in &waiting
+        {
             let g = gap(&self.model, e, &self.state.x);
             if g.abs() <= tol {
                 at_lock.push(e);
@@ -189,7 +195,10 @@ impl Simulator {
             return Ok(0);
         }
         self.core.stats.fallbacks.latch_without_compliance += at_lock.len() as u64;
-        let reached = |e: usize| waiting.iter().find(|w| w.0 == e).map_or(f64::NAN, |w| w.1);
+        let reached = |e: usize| {
+            let w = waiting.iter().find(|w| w.element == e);
+            w.map_or(f64::NAN, |w| w.reached_s)
+        };
         self.latch_rigid(&at_lock, &reached)?;
         Ok(at_lock.len())
     }
@@ -509,17 +518,18 @@ impl Simulator {
             self.state.locked[e] = true;
         }
         let core = &mut self.core;
-        core.history.forget();
+        self.state.carry.accel_history.forget();
         core.set_pattern(model, &self.state.locked);
         core.x.copy_from_slice(&self.state.x);
         core.v.copy_from_slice(&self.state.v);
         core.a_guess.copy_from_slice(&self.state.a);
         // Least squares through the latch: latching into the flat deployed state leaves rows only
         // nearly redundant, on which basic solves are ill-conditioned.
+        let s = &mut self.state;
         core.velocity_jump(
             model,
             st,
-            &self.state.cable_tension_cmd_n,
+            (&s.cable_tension_cmd_n, &mut s.carry),
             SolveMode::MinNorm,
         )?;
         // A basic factorization of the new locked set at the latched state (the
@@ -584,10 +594,10 @@ impl Simulator {
 
 /// Whether a sleeve is held at its lock: latched, or its compliant latch
 /// engaged (its transient lasts) or waiting for the others' to end.
-pub(super) fn held(s: &State, core: &Core, e: usize) -> bool {
+pub(super) fn held(s: &State, e: usize) -> bool {
     s.locked[e]
         || s.transients.iter().any(|t| t.element == e)
-        || core.waiting.iter().any(|w| w.0 == e)
+        || s.carry.waiting.iter().any(|w| w.element == e)
 }
 
 /// Whether a transient's current window of one period has ended at `t` (to

@@ -12,7 +12,7 @@ use crate::solver::cable;
 use crate::solver::linsolve::SolveMode;
 use crate::solver::model::Model;
 use crate::solver::settings::SolverSettings;
-use crate::solver::state::State;
+use crate::solver::state::{Carry, State};
 use crate::solver::SolverError;
 
 impl Core {
@@ -115,21 +115,24 @@ impl Core {
     /// factorization, from scratch (start, latch, command change). Cables with
     /// mass take their inertia from `a_guess`: repeated to the fixed point
     /// (`consistent_unconverged` at the limit).
+    /// With elastic members a restart: `carry` takes its backward-Euler
+    /// sub-steps, releases a held blend start and the state's member forces.
     pub fn consistent_accelerations(
         &mut self,
         model: &Model,
         cmd: &[f64],
         st: &SolverSettings,
+        carry: &mut Carry,
     ) -> Result<(), SolverError> {
         if st.elastic_members {
             self.compliant = Some((model.dt_s, false));
-            self.restart_substeps_left = st.restart_substeps;
-            self.blend_start_held = false;
+            carry.restart_substeps_left = st.restart_substeps;
+            carry.blend_start_held = false;
         }
         let result = self.consistent_fixed_point(model, cmd, st);
         self.compliant = None;
         if st.elastic_members {
-            self.store_state_member_forces();
+            self.state_member_forces(&mut carry.member_force_n);
         }
         result
     }
@@ -175,7 +178,7 @@ impl Core {
         // Predictor: the candidate that would have predicted A_n best
         // (docs/solver.md, Predictor); only the iteration's start changes.
         let best = self.predictor(model, s, h);
-        let [p1, p2, p3, _] = &self.history.a;
+        let [p1, p2, p3, _] = &s.carry.accel_history.a;
         for i in 0..self.a_guess.len() {
             let a = s.a[i];
             self.a_guess[i] = match best {
@@ -201,11 +204,6 @@ impl Core {
         }
         for (dst, src) in self.friction_sliding.iter_mut().zip(&s.cables) {
             dst.copy_from_slice(&src.sliding_m_s);
-        }
-        if !self.blend_start_held {
-            for (dst, src) in self.blend_start.iter_mut().zip(&s.cables) {
-                dst.copy_from_slice(&src.sliding_m_s);
-            }
         }
         let motors = self.motor.any_tracking();
         if motors {
@@ -262,8 +260,8 @@ impl Core {
                 .map(|i| model.mass[i] * (predicted(i) - s.a[i]).powi(2))
                 .sum()
         };
-        let [p1, p2, p3, p4] = &self.history.a;
-        let prev = &self.history.h;
+        let [p1, p2, p3, p4] = &s.carry.accel_history.a;
+        let prev = &s.carry.accel_history.h;
         let equal = |k: usize| prev[k] == Some(h);
         if equal(0) && equal(1) && equal(2) {
             let smooth = miss(&|i| 3.0 * p1[i] - 3.0 * p2[i] + p3[i]);
@@ -376,10 +374,16 @@ impl Core {
             {
                 self.a_guess.copy_from_slice(&self.a);
                 // (only where the blend was stiff)
+                // (from the trial's start, or a held restart's: `Carry::blend_start`)
+                let start = if s.carry.blend_start_held {
+                    &s.carry.blend_start
+                } else {
+                    &self.friction_sliding
+                };
                 self.blend_entry = tried_newton
                     && newton_for_friction
                     && self.newton.gain >= 1.0
-                    && self.friction_blend_entered(model, st.blend_change_rel);
+                    && self.friction_blend_entered(model, st.blend_change_rel, start);
                 self.newton_last = tried_newton;
                 return Ok(());
             }
@@ -454,46 +458,6 @@ impl Core {
         }
         self.newton_last = false;
         Err(SolverError::NoConvergence { t_s: s.t_s + h })
-    }
-}
-
-/// The accelerations at the starts of the last accepted sub-steps, newest
-/// first (A_{n-1} .. A_{n-4}), and those sub-steps' lengths (None: no
-/// extrapolation across a velocity jump, a latch or a reset).
-pub(super) struct AccelHistory {
-    pub a: [Vec<f64>; 4],
-    pub h: [Option<f64>; 4],
-}
-
-impl AccelHistory {
-    pub fn new(n: usize) -> AccelHistory {
-        AccelHistory {
-            a: std::array::from_fn(|_| vec![0.0; n]),
-            h: [None; 4],
-        }
-    }
-
-    /// After an accepted sub-step of length h that started from `a`.
-    pub fn push(&mut self, a: &[f64], h: f64) {
-        self.a.rotate_right(1);
-        self.h.rotate_right(1);
-        self.a[0].copy_from_slice(a);
-        self.h[0] = Some(h);
-    }
-
-    /// No extrapolation across what just happened.
-    pub fn forget(&mut self) {
-        self.h[0] = None;
-    }
-
-    /// A command's jump of the accelerations from `before` to `after`,
-    /// which persists: every entry shifted by it.
-    pub fn shift(&mut self, before: &[f64], after: &[f64]) {
-        for a in &mut self.a {
-            for ((a, b), c) in a.iter_mut().zip(before).zip(after) {
-                *a += c - b;
-            }
-        }
     }
 }
 

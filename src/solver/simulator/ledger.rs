@@ -24,15 +24,20 @@ impl Simulator {
     pub(super) fn accept(&mut self, h: f64) {
         self.core.stats.substeps += 1;
         // the sub-step after a restart's backward-Euler ones judges a blend entry from the
-        // restart's sliding (`friction_blend_entered`)
-        let core = &mut self.core;
-        let restart_be = core.backward_euler && core.restart_substeps_left > 0;
+        // restart's sliding (`friction_blend_entered`): the state's before the first of them
+        let (core, carry) = (&mut self.core, &mut self.state.carry);
+        let restart_be = core.backward_euler && carry.restart_substeps_left > 0;
         if restart_be {
-            core.restart_substeps_left -= 1;
+            carry.restart_substeps_left -= 1;
             core.stats.restart_backward_euler += 1;
+            if !carry.blend_start_held {
+                for (dst, src) in carry.blend_start.iter_mut().zip(&self.state.cables) {
+                    dst.copy_from_slice(&src.sliding_m_s);
+                }
+            }
         }
-        core.blend_start_held = restart_be;
-        core.history.push(&self.state.a, h);
+        carry.blend_start_held = restart_be;
+        carry.accel_history.push(&self.state.a, h);
         let (elastic_j, damper_j) = core.element_springs.book_move(
             &self.model,
             (&self.state.x, &self.state.v),
@@ -48,7 +53,7 @@ impl Simulator {
         e.damping_loss_j += damper_j;
         if self.settings.elastic_members {
             // members' trapezoid work on the joints less their strain energy's gain: dampers' loss
-            let work_j = member_work_j(&s.x, &c.x, &c.member_force_state, &c.member_force_trial);
+            let work_j = member_work_j(&s.x, &c.x, &s.carry.member_force_n, &c.member_force_trial);
             e.member_damping_loss_j += -work_j - (c.strain_trial_j - e.member_strain_energy_j);
             e.member_strain_energy_j = c.strain_trial_j;
         }
@@ -81,8 +86,10 @@ impl Simulator {
         s.t_s += h;
         c.commit_trial(s);
         if self.settings.elastic_members {
-            let core = &mut self.core;
-            std::mem::swap(&mut core.member_force_state, &mut core.member_force_trial);
+            std::mem::swap(
+                &mut s.carry.member_force_n,
+                &mut self.core.member_force_trial,
+            );
         }
         let settle_rel = self.settings.latch_settle_rel;
         for tr in &mut s.transients {
@@ -110,7 +117,7 @@ impl Simulator {
         let d_kinetic_j = kinetic_trial_j - kinetic_before_j;
         // elastic members: their strain energy's change and what the velocity projection took
         let member_j = if self.settings.elastic_members {
-            member_work_j(&s.x, &c.x, &c.member_force_state, &c.member_force_trial)
+            member_work_j(&s.x, &c.x, &s.carry.member_force_n, &c.member_force_trial)
         } else {
             0.0
         };

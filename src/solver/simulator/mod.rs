@@ -33,9 +33,9 @@ use super::jacobian::Jacobian;
 use super::linsolve::SolveMode;
 use super::model::Model;
 use super::settings::SolverSettings;
-use super::state::State;
+use super::state::{MadeEnergyHalving, ModelKey, Snapshot, State};
 use super::stats::SolverStats;
-use super::{Options, SolverError, StepLimits};
+use super::{Options, RequestError, SolverError, StepLimits};
 
 /// The simulator: an immutable model, the state it advances, and the solver.
 pub struct Simulator {
@@ -45,8 +45,6 @@ pub struct Simulator {
     opts: Options,
     /// The model's settings (a copy, passed to every stage).
     settings: SolverSettings,
-    /// A cable command changed since the state's accelerations were computed.
-    command_changed: bool,
     /// The full-step trial while a dip of a sleeve's gap is checked.
     trial_copy: TrialCopy,
     /// Positions interpolated inside a step (events), and at a sub-step's
@@ -56,16 +54,16 @@ pub struct Simulator {
     /// The drive's work to the reference geometry: the ledger budget's scale
     /// before the run's own energy grows to it.
     drive_work_ref_j: f64,
-    /// The last trial that made energy and was halved, (h s, miss J).
-    made_energy_halved: Option<(f64, f64)>,
     /// The caller's limits on a step's wall time.
     limits: StepLimits,
+    /// The state at t = 0 (`reset` restores it).
+    initial: Option<Box<Snapshot>>,
 }
 
 impl Simulator {
     pub fn new(model: Model, opts: Options) -> Result<Simulator, SolverError> {
         let settings = model.solver.clone();
-        settings.validate().map_err(SolverError::Invalid)?;
+        settings.validate().map_err(SolverError::Settings)?;
         let locked = vec![false; model.elements.len()];
         let core = Core::new(&model, &locked, opts.solver.make());
         let n = model.n_coords();
@@ -75,16 +73,16 @@ impl Simulator {
             core,
             opts,
             settings,
-            command_changed: false,
             trial_copy: TrialCopy::default(),
             interp: vec![0.0; n],
             x_start: vec![0.0; n],
             drive_work_ref_j: 0.0,
-            made_energy_halved: None,
             limits: StepLimits::default(),
+            initial: None,
         };
         sim.drive_work_ref_j = sim.model.drive_work_to_reference_j();
         sim.initialize()?;
+        sim.initial = Some(Box::new(sim.save()));
         Ok(sim)
     }
 
@@ -97,10 +95,8 @@ impl Simulator {
             state.locked[e] = gap(model, e, &model.x0).abs() <= st.lock_tol_m;
         }
         let core = &mut self.core;
-        core.history.forget();
         core.backward_euler = false;
         core.element_springs.release_latches(None);
-        core.waiting.clear();
         core.motor.take_modes(&state);
         core.set_pattern(model, &state.locked);
         core.x.copy_from_slice(&model.x0);
@@ -118,23 +114,70 @@ impl Simulator {
         core.v.fill(0.0);
         core.factor(model, SolveMode::Basic)?;
         core.a_guess.fill(0.0);
-        core.consistent_accelerations(model, &state.cable_tension_cmd_n, st)?;
+        core.consistent_accelerations(model, &state.cable_tension_cmd_n, st, &mut state.carry)?;
         core.commit_trial(&mut state); // (v = 0, as the state's)
         self.state = state;
         self.state.mechanisms = self.mechanisms_now();
         self.state.deployed = !self.model.locks.is_empty() && self.all_locked();
-        self.command_changed = false;
         Ok(())
     }
 
-    /// Back to the initial state (same model, the model's cable tensions).
-    /// The solver's counters go on counting.
+    /// Back to the initial state (same model, the model's cable tensions):
+    /// its snapshot, so that the run from there is the first run again, to
+    /// the bit. The solver's counters go on counting.
     pub fn reset(&mut self) -> Result<(), SolverError> {
-        self.initialize()
+        let (Some(initial), stats) = (self.initial.take(), self.core.stats.clone()) else {
+            return self.initialize();
+        };
+        let restored = self.restore(&initial);
+        self.initial = Some(initial);
+        self.core.stats = stats;
+        restored
     }
 
     pub fn model(&self) -> &Model {
         &self.model
+    }
+
+    /// The state with everything else a step carries to the next: the
+    /// solver's counters and its kept factorizations (`Snapshot`).
+    pub fn save(&self) -> Snapshot {
+        Snapshot {
+            model: ModelKey::of(&self.model),
+            state: self.state.clone(),
+            solver_stats: self.core.stats.clone(),
+            kept: self.core.solver.kept(),
+        }
+    }
+
+    /// Continues from a snapshot of a simulator of the same model (its name
+    /// and sizes are checked): the state, the counters, and the kept
+    /// factorizations made again from what they were made from, so that the
+    /// steps that follow are those the saved run took, to the bit. The
+    /// caller's step limits stay.
+    pub fn restore(&mut self, snap: &Snapshot) -> Result<(), SolverError> {
+        let key = ModelKey::of(&self.model);
+        if snap.model != key {
+            return Err(SolverError::Request(RequestError::SnapshotOfAnotherModel {
+                snapshot: snap.model.clone(),
+                model: key,
+            }));
+        }
+        snap.state.check_sizes(&self.model)?;
+        self.state.clone_from(&snap.state);
+        let (model, core, s) = (&self.model, &mut self.core, &self.state);
+        core.stats.clone_from(&snap.solver_stats);
+        core.set_pattern(model, &s.locked);
+        core.backward_euler = false;
+        core.element_springs.release_latches(None);
+        for tr in &s.transients {
+            let (k, c) = (tr.stiffness_n_per_m, tr.damping_n_s_per_m);
+            core.element_springs.engage_latch(model, tr.element, k, c);
+        }
+        core.motor.take_modes(s);
+        core.motor.conflicted.fill(false);
+        core.least_work = None;
+        core.solver.restore_kept(&core.jac, &snap.kept)
     }
     pub fn state(&self) -> &State {
         &self.state
@@ -185,7 +228,12 @@ impl Simulator {
     }
 
     fn cable(&self, index: usize) -> Result<&super::model::Cable, SolverError> {
-        let no_such = || SolverError::Invalid(format!("no cable with index {index}"));
+        let no_such = || {
+            SolverError::Request(RequestError::NoSuchCable {
+                index,
+                cables: self.model.cables.len(),
+            })
+        };
         self.model.cables.get(index).ok_or_else(no_such)
     }
 
@@ -194,16 +242,17 @@ impl Simulator {
     pub fn set_cable_tension(&mut self, cable: usize, tension_n: f64) -> Result<(), SolverError> {
         let c = self.cable(cable)?;
         if !(tension_n.is_finite() && tension_n >= 0.0 && tension_n <= c.max_tension_n) {
-            return Err(SolverError::Invalid(format!(
-                "tension {tension_n} N for cable `{}` must be finite, >= 0 and <= {} N",
-                c.name, c.max_tension_n
-            )));
+            return Err(SolverError::Request(RequestError::Tension {
+                cable: c.name.clone(),
+                tension_n,
+                max_tension_n: c.max_tension_n,
+            }));
         }
         self.set_cable_speed(cable, None)?;
         self.state.motors[cable].tension_cmd_n = tension_n;
         if self.state.cable_tension_cmd_n[cable] != tension_n {
             self.state.cable_tension_cmd_n[cable] = tension_n;
-            self.command_changed = true;
+            self.state.carry.command_changed = true;
         }
         Ok(())
     }
@@ -212,21 +261,20 @@ impl Simulator {
     /// current commands: a command jumps at a step start, so the step starts
     /// from A(t_n+) (from the old A_n the trapezoid would take it for a ramp).
     fn restart_accelerations(&mut self) -> Result<(), SolverError> {
-        let (model, core) = (&self.model, &mut self.core);
-        core.x.copy_from_slice(&self.state.x);
-        core.v.copy_from_slice(&self.state.v);
-        core.a_guess.copy_from_slice(&self.state.a);
+        let (model, core, s) = (&self.model, &mut self.core, &mut self.state);
+        core.x.copy_from_slice(&s.x);
+        core.v.copy_from_slice(&s.v);
+        core.a_guess.copy_from_slice(&s.a);
         core.factor(model, SolveMode::Basic)?;
-        core.consistent_accelerations(model, &self.state.cable_tension_cmd_n, &self.settings)?;
+        core.consistent_accelerations(model, &s.cable_tension_cmd_n, &self.settings, &mut s.carry)?;
         // (the jump persists: the predictor's history moves with it)
-        core.history.shift(&self.state.a, &core.a);
-        let s = &mut self.state;
+        s.carry.accel_history.shift(&s.a, &core.a);
         s.a.copy_from_slice(&core.a);
         s.lambda.clone_from(&core.lambda);
         for (o, n) in s.cables.iter_mut().zip(&core.cables) {
             o.clone_from(n);
         }
-        self.command_changed = false;
+        s.carry.command_changed = false;
         Ok(())
     }
 
@@ -271,14 +319,12 @@ impl Simulator {
     /// budget (doubling h multiplies the miss by 8 and its budget by 2).
     fn step_stages(&mut self, dt: f64) -> Result<usize, SolverError> {
         if !(dt.is_finite() && dt > 0.0) {
-            return Err(SolverError::Invalid(format!(
-                "time step {dt} s must be positive and finite"
-            )));
+            return Err(SolverError::Request(RequestError::TimeStep { dt_s: dt }));
         }
         // (a step that failed inside left its last trial's rule)
         self.core.backward_euler = false;
         self.core.motor.conflicted.fill(false);
-        if self.command_changed {
+        if self.state.carry.command_changed {
             self.restart_accelerations()?;
         }
         let t_end = self.state.t_s + dt;
@@ -350,10 +396,10 @@ impl Simulator {
         }
         let max = self.settings.max_substeps;
         if substeps > max + 4 * self.model.locks.len() {
-            return Err(SolverError::Invalid(format!(
-                "more than {max} sub-steps or latch events inside the step ending at t = {t_end:.6} s \
-                 (raise [solver] max_substeps, or use a smaller --dt)"
-            )));
+            return Err(SolverError::SubstepBudget {
+                max_substeps: max,
+                t_end_s: t_end,
+            });
         }
         Ok(())
     }
@@ -362,7 +408,7 @@ impl Simulator {
     /// k-th at most 2^k `restart_substep_fraction` dt, also where a step's end
     /// falls among them (`Core::restart_substeps_left`).
     fn restart_substep_cap(&mut self, h_try: f64, dt: f64) -> f64 {
-        let (st, left) = (&self.settings, self.core.restart_substeps_left);
+        let (st, left) = (&self.settings, self.state.carry.restart_substeps_left);
         if left == 0 || !st.elastic_members {
             return h_try;
         }
@@ -371,12 +417,24 @@ impl Simulator {
         h_try.min(st.restart_substep_fraction * dt * 2f64.powi(k as i32))
     }
 
+    /// A Newmark trial of length h from the state into the core (stage
+    /// `integrator`), its Newton flag carried in the state (`Carry::newton_last`).
+    fn newmark_trial(&mut self, h: f64, mode: SolveMode) -> Result<(), SolverError> {
+        self.core.newton_last = self.state.carry.newton_last;
+        let (model, st) = (&self.model, &self.settings);
+        let result = self.core.newmark(model, &self.state, h, st, mode);
+        self.state.carry.newton_last = self.core.newton_last;
+        result
+    }
+
     /// A trial sub-step of length h (stage `integrator`) and its gates, each
     /// of which retries it: shorter, or once more under the backward-Euler rule.
     fn trial(&mut self, h: f64, dt: f64) -> Result<Trial, SolverError> {
         let (st, base) = (&self.settings, SolveMode::Basic);
         let above_shortest = h > dt * st.min_substep_fraction;
-        match self.core.newmark(&self.model, &self.state, h, st, base) {
+        let trial = self.newmark_trial(h, base);
+        let st = &self.settings;
+        match trial {
             // (a failed projection or iterates gone non-finite too: near a
             // singular state the shorter step stays nearer the manifold)
             Err(e) if shorter_may_converge(&e) && above_shortest => {
@@ -460,20 +518,18 @@ impl Simulator {
         let scale_j = self.state.energy.scale_j(trial.kinetic_before_j);
         let miss_j = trial.residual_j.abs();
         let shortest = h <= dt * st.min_substep_fraction;
-        let halved = self.made_energy_halved.take();
+        let halved = self.state.carry.made_energy_halved.take();
         if miss_j > rel * trial.flow_j && miss_j > floor_rel * scale_j {
             // (at the shortest sub-step only while halving helps: a half that
             // misses more than a quarter as much has not halved the miss per
             // second, which is then no O(h^3) error but a power the solution
             // makes near a singular state)
             let helps = match halved {
-                Some((h_prev, miss_prev)) if (h_prev / h - 2.0).abs() < 1e-9 => {
-                    miss_j < 0.25 * miss_prev
-                }
+                Some(prev) if (prev.h_s / h - 2.0).abs() < 1e-9 => miss_j < 0.25 * prev.miss_j,
                 _ => true,
             };
             if h > dt * st.made_energy_min_substep_fraction && (!shortest || helps) {
-                self.made_energy_halved = Some((h, miss_j));
+                self.state.carry.made_energy_halved = Some(MadeEnergyHalving { h_s: h, miss_j });
                 self.core.stats.fallbacks.substep_energy_halvings += 1;
                 return Trial::Retry { h_s: 0.5 * h };
             }
@@ -521,7 +577,7 @@ impl Simulator {
     /// positions `x_start` and the state's: else a `MissedLatch` error.
     fn check_nothing_missed(&self) -> Result<(), SolverError> {
         let (model, s) = (&self.model, &self.state);
-        let held = |e: usize| impact::held(s, &self.core, e);
+        let held = |e: usize| impact::held(s, e);
         let tol = self.settings.lock_tol_m;
         match events::crossed_unlatched(model, &held, &self.x_start, &s.x, tol, None) {
             Some(e) => Err(SolverError::MissedLatch {

@@ -19,7 +19,7 @@ use crate::solver::linsolve::solve_small;
 use crate::solver::model::Model;
 use crate::solver::settings::SolverSettings;
 use crate::solver::state::{kinetic_energy_j, MotorHold, State};
-use crate::solver::SolverError;
+use crate::solver::{MotorConflict, RequestError, SolverError};
 
 /// Buffers of the motors' solves, reused across steps.
 #[derive(Debug, Default)]
@@ -96,22 +96,14 @@ impl MotorWork {
                 Err(col) => col,
             },
         };
-        let name = |oi: usize| model.cables[self.order[oi]].name.as_str();
-        Err(SolverError::Invalid(if immobile.is_some() {
-            format!(
-                "the structure cannot move along the cable `{}` of a speed-controlled motor \
-                 (it is locked up or at a singular configuration)",
-                name(col)
-            )
+        let name = |oi: usize| model.cables[self.order[oi]].name.clone();
+        Err(SolverError::MotorConflict(if immobile.is_some() {
+            MotorConflict::Immobile { cable: name(col) }
         } else {
-            let before: Vec<String> = (0..col).map(|oi| format!("`{}`", name(oi))).collect();
-            format!(
-                "the speed-controlled cable `{}` drives the same motion as {}: the \
-                 structure cannot follow two speeds along one motion (control one of \
-                 them by its speed, the other by its tension)",
-                name(col),
-                before.join(", ")
-            )
+            MotorConflict::SameMotion {
+                cable: name(col),
+                others: (0..col).map(name).collect(),
+            }
         }))
     }
 
@@ -372,16 +364,15 @@ impl Simulator {
         let c = self.cable(cable)?;
         if let Some(s) = speed_m_s {
             if !s.is_finite() {
-                return Err(SolverError::Invalid(format!(
-                    "speed {s} m/s for cable `{}` must be finite",
-                    c.name
-                )));
+                return Err(SolverError::Request(RequestError::Speed {
+                    cable: c.name.clone(),
+                    speed_m_s: s,
+                }));
             }
             if c.line_density_kg_per_m > 0.0 {
-                return Err(SolverError::Invalid(format!(
-                    "cable `{}` has a line density: speed control takes massless cables",
-                    c.name
-                )));
+                return Err(SolverError::Request(RequestError::SpeedOfMassiveCable {
+                    cable: c.name.clone(),
+                }));
             }
         }
         let m = &mut self.state.motors[cable];
@@ -413,7 +404,7 @@ impl Simulator {
             }
         }
         self.core.motor.take_modes(&self.state);
-        self.command_changed = true;
+        self.state.carry.command_changed = true;
         Ok(())
     }
 
@@ -454,7 +445,7 @@ impl Simulator {
         core.compliant = None;
         match solvable {
             Ok(()) => {}
-            Err(e @ SolverError::Invalid(_)) => {
+            Err(e @ SolverError::MotorConflict(_)) => {
                 // (the jump is not taken: the state is as it was)
                 core.motor.take_modes(s);
                 return Ok(Some(e));
@@ -471,14 +462,14 @@ impl Simulator {
                 s.motors[ci].length_ref_m = model.cables[ci].length_m(&s.x);
                 core.stats.motor_engagements += 1;
             }
-            Err(SolverError::Invalid(_)) => {
+            Err(SolverError::MotorConflict(_)) => {
                 s.motors[ci].hold = MotorHold::AtLimit;
                 s.cable_tension_cmd_n[ci] = model.cables[ci].max_tension_n;
             }
             Err(e) => return Err(e),
         }
         core.motor.take_modes(s);
-        core.history.forget();
+        s.carry.accel_history.forget();
         Ok(None)
     }
 
@@ -544,7 +535,7 @@ impl Simulator {
         }
         if changed {
             self.core.motor.conflicted.fill(false);
-            self.core.history.forget();
+            self.state.carry.accel_history.forget();
             self.restart_accelerations()?;
         }
         Ok(changed)

@@ -226,8 +226,13 @@ impl Core {
     /// a change of the sliding there is that transient, stepped over. The change is counted from
     /// `blend_start`: the step's start, or after a restart's short backward-Euler sub-steps
     /// (`Core::restart_substeps_left`) the restart's, whose transient those only began to damp.
-    pub(super) fn friction_blend_entered(&self, model: &Model, change_rel: f64) -> bool {
-        self.pulleys_in_blend(model, &self.blend_start)
+    pub(super) fn friction_blend_entered(
+        &self,
+        model: &Model,
+        change_rel: f64,
+        start: &[Vec<f64>],
+    ) -> bool {
+        self.pulleys_in_blend(model, start)
             .any(|(s, s0, slip)| (s - s0).abs() > change_rel * slip)
     }
 
