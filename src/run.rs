@@ -183,6 +183,34 @@ fn deployed_message(sim: &Simulator) -> String {
     }
 }
 
+/// Why a run stopped at a result accepted inexact beyond
+/// `RunChecks::max_inexact_results`: which results (counted since `before`),
+/// and how nearly dependent the constraint rows are at the state.
+fn inexact(sim: &mut Simulator, before: &SolverStats, t_s: f64) -> String {
+    let (now, then) = (
+        sim.solver_stats().accepting_fallbacks_by_kind(),
+        before.accepting_fallbacks_by_kind(),
+    );
+    let kinds: Vec<String> = now
+        .iter()
+        .zip(&then)
+        .filter(|(n, b)| n.1 > b.1)
+        .map(|(n, b)| format!("{} {}", n.1 - b.1, n.0))
+        .collect();
+    let rows = match sim.near_dependence() {
+        Some(d) => d.to_string(),
+        None => {
+            "the model is too large for the rows' dense analysis ([solver] rank_check_max_coords)"
+                .to_string()
+        }
+    };
+    format!(
+        "stopped at t = {t_s:.6} s at the first result accepted inexact (in its sub-step: {}; \
+         [checks] max_inexact_results): {rows}",
+        kinds.join(", ")
+    )
+}
+
 /// Steps `sim` until it deploys, reaches the end time, stalls, fails a
 /// check or a step, runs out of steps or wall time, or `obs` stops it.
 pub fn run_loop(
@@ -193,11 +221,15 @@ pub fn run_loop(
 ) -> Stop {
     let (dt, until) = (limits.dt_s, limits.until_s);
     let start = Instant::now();
+    let inexact_before = sim.solver_stats().clone();
     sim.set_step_limits(StepLimits {
         deadline: limits
             .max_wall_s
             .map(|limit| start + Duration::from_secs_f64(limit)),
         cancel: limits.cancel.clone(),
+        max_accepting_fallbacks: Some(
+            inexact_before.accepting_fallbacks() + checks.max_inexact_results,
+        ),
     });
     let interrupted = |t_s: f64| {
         (
@@ -269,6 +301,7 @@ pub fn run_loop(
                 break match why {
                     StopWhy::Cancelled => interrupted(t_s),
                     StopWhy::Deadline => wall_limit(t_s),
+                    StopWhy::Inexact => (StopReason::Error, inexact(sim, &inexact_before, t_s)),
                 };
             }
             break (

@@ -19,6 +19,7 @@
 //! stall_rel_motion = 1e-7    # at rest: no joint moves this fraction of the size ...
 //! stall_time_s = 1.0         # ... within this time; so long at rest: `stalled`
 //! max_steps = 2000000        # step budget of one run
+//! max_inexact_results = 0    # results accepted inexact before the run stops
 //! jam_error_rel = 1e-6       # rigid with sleeves unlatched, farther from the reference: `stalled`
 //! held_short_rel_gap = 1e-3  # a latch leaves a sleeve this fraction of the size short, fixed ...
 //! held_short_confirm_s = 5.0 # ... and it has not moved so long after: `stalled` (1e300: never)
@@ -116,6 +117,7 @@ struct ChecksSpec {
     held_short_rel_gap: Option<f64>,
     held_short_confirm_s: Option<f64>,
     stick_confirm_s: Option<f64>,
+    max_inexact_results: Option<u64>,
 }
 
 /// Exactly three numbers [x, y, z]: serde's fixed-size arrays would take the
@@ -686,6 +688,9 @@ fn run_checks(c: &ChecksSpec) -> Result<RunChecks, String> {
     }
     if let Some(v) = positive("stick_confirm_s", c.stick_confirm_s)? {
         r.stick_confirm_s = v;
+    }
+    if let Some(v) = c.max_inexact_results {
+        r.max_inexact_results = v;
     }
     if let Some(v) = c.max_steps {
         if v == 0 {

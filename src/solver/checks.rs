@@ -50,6 +50,12 @@ pub struct RunChecks {
     /// (`StickWatch`) without a latch before the run stops as `stalled`.
     /// Default 5 s.
     pub stick_confirm_s: f64,
+    /// Results accepted inexact (`SolverStats::accepting_fallbacks`: an
+    /// unconverged solve or inertia fixed point, a sub-step accepted making
+    /// energy or over its ledger's budget) a run may take; the next stops it
+    /// at once (stop `error`), naming how nearly dependent the constraint
+    /// rows are there (`mobility::near_dependence`). Default 0.
+    pub max_inexact_results: u64,
 }
 
 impl Default for RunChecks {
@@ -60,6 +66,7 @@ impl Default for RunChecks {
             stall_rel_motion: 1e-7,
             stall_time_s: 1.0,
             max_steps: 2_000_000,
+            max_inexact_results: 0,
             min_dt_fraction: 1e-9,
             jam_error_rel: 1e-6,
             held_short_rel_gap: 1e-3,

@@ -170,6 +170,7 @@ impl fmt::Display for SolverError {
                 match why {
                     StopWhy::Deadline => "the wall-clock deadline passed",
                     StopWhy::Cancelled => "a stop was requested",
+                    StopWhy::Inexact => "a result was accepted inexact",
                 }
             ),
         }

@@ -116,3 +116,114 @@ pub fn analyze(model: &Model, x: &[f64], locked: &[bool]) -> Mobility {
         per_element,
     }
 }
+
+/// Singular values of A below this fraction of the largest (and above the
+/// rank decision's `RANK_TOL`) are a nearly singular configuration: rows
+/// that are independent, but barely (`near_dependence`).
+pub const NEAR_SINGULAR_REL: f64 = 1e-5;
+
+/// How nearly dependent the constraint rows of a state are
+/// (`near_dependence`): the rank, and the directions in which the rows
+/// are independent only by a small singular value, with the elements whose
+/// rows carry them.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct NearDependence {
+    pub coordinates: usize,
+    pub rows: usize,
+    pub rank: usize,
+    /// Rows less rank: states of self-stress (exactly redundant rows).
+    pub self_stress: usize,
+    /// The smallest singular values above `RANK_TOL` and at most
+    /// `NEAR_SINGULAR_REL` of the largest, smallest first, each with the
+    /// elements carrying most of its left singular vector (their share of
+    /// its squared norm, largest first, at most six).
+    pub near: Vec<NearDirection>,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct NearDirection {
+    pub sigma_rel: f64,
+    pub elements: Vec<(String, f64)>,
+}
+
+/// The near dependence of the rows of `jac` (filled at the state) by a
+/// dense SVD.
+pub fn near_dependence(model: &Model, jac: &Jacobian) -> NearDependence {
+    let (m, n) = (jac.nrows, jac.ncols);
+    let mut out = NearDependence {
+        coordinates: n,
+        rows: m,
+        rank: 0,
+        self_stress: 0,
+        near: Vec::new(),
+    };
+    if m == 0 {
+        return out;
+    }
+    let svd = jac.to_dense().svd(true, false);
+    let u = svd.u.expect("u requested");
+    let sigma = svd.singular_values;
+    let smax = sigma.iter().cloned().fold(0.0, f64::max);
+    out.rank = super::rank::numerical_rank(sigma.as_slice());
+    out.self_stress = m - out.rank;
+    let mut near: Vec<usize> = (0..sigma.len())
+        .filter(|&k| sigma[k] > RANK_TOL * smax && sigma[k] <= NEAR_SINGULAR_REL * smax)
+        .collect();
+    near.sort_by(|&a, &b| sigma[a].total_cmp(&sigma[b]));
+    for &k in near.iter().take(3) {
+        let mut share: Vec<(usize, f64)> = Vec::new();
+        for row in 0..m {
+            let (e, _) = jac.row_owner(row);
+            let w = u[(row, k)].powi(2);
+            match share.iter_mut().find(|s| s.0 == e) {
+                Some(s) => s.1 += w,
+                None => share.push((e, w)),
+            }
+        }
+        share.sort_by(|a, b| b.1.total_cmp(&a.1));
+        out.near.push(NearDirection {
+            sigma_rel: sigma[k] / smax,
+            elements: share
+                .into_iter()
+                .take(6)
+                .map(|(e, w)| (model.elements[e].name().to_string(), w))
+                .collect(),
+        });
+    }
+    out
+}
+
+impl std::fmt::Display for NearDependence {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let Some(first) = self.near.first() else {
+            return write!(
+                f,
+                "the constraint rows are not nearly dependent there (rank {} of {} rows, {} coordinates; \
+                 no singular value between {RANK_TOL:e} and {NEAR_SINGULAR_REL:e} of the largest)",
+                self.rank, self.rows, self.coordinates
+            );
+        };
+        let names: Vec<String> = first
+            .elements
+            .iter()
+            .map(|(name, w)| format!("`{name}` ({:.0} %)", 100.0 * w))
+            .collect();
+        write!(
+            f,
+            "the constraint rows are nearly dependent there: {} singular value(s) of the Jacobian \
+             between {RANK_TOL:e} and {NEAR_SINGULAR_REL:e} of the largest, the smallest {:.1e}, \
+             its rows mostly those of {} (rank {} of {} rows, {} coordinates, {} states of \
+             self-stress): a singular configuration, which rigid members cannot cross (their \
+             solves stop converging; a shorter step does not help, docs/solver.md); make the \
+             members elastic ([solver] elastic_members = true, or `truss-deploy generate ring \
+             --members elastic`)",
+            self.near.len(),
+            first.sigma_rel,
+            names.join(", "),
+            self.rank,
+            self.rows,
+            self.coordinates,
+            self.self_stress
+        )
+    }
+}

@@ -43,12 +43,18 @@ pub struct StepLimits {
     pub deadline: Option<Instant>,
     /// A flag that, once raised, stops the step before its next sub-step.
     pub cancel: Option<Arc<AtomicBool>>,
+    /// The count of results accepted inexact (`SolverStats::accepting_fallbacks`)
+    /// past which no sub-step starts: a run that takes none ends at the first.
+    pub max_accepting_fallbacks: Option<u64>,
 }
 
 impl StepLimits {
-    /// Which limit holds now, if any.
-    pub(crate) fn reached(&self) -> Option<StopWhy> {
-        if self
+    /// Which limit holds now, if any, with `accepting` results accepted
+    /// inexact so far.
+    pub(crate) fn reached(&self, accepting: u64) -> Option<StopWhy> {
+        if self.max_accepting_fallbacks.is_some_and(|m| accepting > m) {
+            Some(StopWhy::Inexact)
+        } else if self
             .cancel
             .as_ref()
             .is_some_and(|c| c.load(Ordering::Relaxed))
@@ -69,4 +75,6 @@ pub enum StopWhy {
     Deadline,
     /// The cancel flag was raised (a signal, another thread).
     Cancelled,
+    /// A result was accepted inexact beyond `max_accepting_fallbacks`.
+    Inexact,
 }

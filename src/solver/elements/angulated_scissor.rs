@@ -9,7 +9,7 @@
 //! straight (r_oi x r_oj = 0): the build rejects such geometry.
 
 use super::kernels::{coplanar_scale, Coplanar, Distance};
-use super::{at, Constraint, ElementSpec};
+use super::{at, Constraint, ElementError, ElementSpec};
 
 #[derive(Debug)]
 pub struct AngulatedScissor {
@@ -57,7 +57,7 @@ impl AngulatedScissor {
 /// The parameters a model file may give this element (`elements::REGISTRY`).
 pub const PARAMS: &[&str] = &[super::AXIAL_STIFFNESS_KEY];
 
-pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, String> {
+pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, ElementError> {
     spec.expect_joints(5, "i, hub o, j of rod 1, then k, l of rod 2")?;
     spec.only_params(PARAMS)?;
     let j5 = [
@@ -71,14 +71,14 @@ pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, Stri
     for (r, (a, b)) in PAIRS.iter().enumerate() {
         lengths[r] = (at(x0, j5[*b]) - at(x0, j5[*a])).norm();
         if lengths[r] <= 1e-9 {
-            return Err(
+            return Err(ElementError::Geometry(
                 "two of its joints coincide (zero-length arm); check the joint positions".into(),
-            );
+            ));
         }
     }
     let (oi, oj) = (at(x0, j5[0]) - at(x0, j5[1]), at(x0, j5[2]) - at(x0, j5[1]));
     if oi.cross(&oj).norm() <= 1e-6 * oi.norm() * oj.norm() {
-        return Err("rod i-o-j is straight, so it defines no plane; use a `scissor` element for straight rods".into());
+        return Err(ElementError::Geometry("rod i-o-j is straight, so it defines no plane; use a `scissor` element for straight rods".into()));
     }
     let scale = coplanar_scale(lengths[0], lengths[1]);
     Ok(Box::new(AngulatedScissor {

@@ -2,7 +2,7 @@
 //! Phi = |X_b - X_a| - L, one row. L is the initial distance unless `length_m` is given.
 
 use super::kernels::Distance;
-use super::{at, Constraint, ElementSpec};
+use super::{at, Constraint, ElementError, ElementSpec};
 
 #[derive(Debug)]
 pub struct Bar {
@@ -33,14 +33,14 @@ impl Bar {
 /// The parameters a model file may give this element (`elements::REGISTRY`).
 pub const PARAMS: &[&str] = &["length_m", super::AXIAL_STIFFNESS_KEY];
 
-pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, String> {
+pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, ElementError> {
     spec.expect_joints(2, "its two end joints")?;
     spec.only_params(PARAMS)?;
     let (a, b) = (spec.joints[0], spec.joints[1]);
     let l0 = (at(x0, b) - at(x0, a)).norm();
     let length_m = spec.num("length_m")?.unwrap_or(l0);
     if length_m <= 1e-9 || l0 <= 1e-9 {
-        return Err(format!("zero-length member (its joints are {l0:.3e} m apart); move one end joint or remove the member"));
+        return Err(ElementError::Geometry(format!("zero-length member (its joints are {l0:.3e} m apart); move one end joint or remove the member")));
     }
     Ok(Box::new(Bar {
         axial_stiffness_n: spec.axial_stiffness()?,

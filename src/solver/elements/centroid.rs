@@ -6,7 +6,7 @@
 //! without biasing a symmetric deployment: unlike a support at one joint it
 //! needs no reaction while the centre of mass stays put.
 
-use super::{Constraint, ElementSpec};
+use super::{Constraint, ElementError, ElementSpec};
 
 #[derive(Debug)]
 pub struct Centroid {
@@ -20,16 +20,18 @@ pub struct Centroid {
 /// The parameters a model file may give this element (`elements::REGISTRY`).
 pub const PARAMS: &[&str] = &["fix", "first_group"];
 
-pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, String> {
+pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, ElementError> {
     if spec.joints.is_empty() {
-        return Err("a centroid support needs at least one joint".into());
+        return Err(ElementError::Geometry(
+            "a centroid support needs at least one joint".into(),
+        ));
     }
     spec.only_params(PARAMS)?;
     let fix = spec.text("fix")?.unwrap_or("xyz");
     if fix.is_empty() || fix.chars().any(|c| !"xyz".contains(c)) {
-        return Err(format!(
+        return Err(ElementError::Geometry(format!(
             "`fix` = \"{fix}\"; give the fixed axes as letters from \"xyz\", e.g. \"z\""
-        ));
+        )));
     }
     let n = spec.joints.len();
     let weights: Vec<f64> = match spec.num("first_group")? {
@@ -39,10 +41,10 @@ pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, Stri
             (0..n).map(|i| if i < k { 1.0 / k as f64 } else { -1.0 / (n - k) as f64 }).collect()
         }
         Some(k) => {
-            return Err(format!(
+            return Err(ElementError::Geometry(format!(
                 "`first_group` = {k} must be a whole number from 1 to {} (the joints of the first group)",
                 n - 1
-            ))
+            )))
         }
     };
     // Scale the row to a unit gradient (weights w / |w|): the row then reads in

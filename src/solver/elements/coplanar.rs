@@ -3,7 +3,7 @@
 //! quadrilateral of bars whose hinges have parallel axes) in its plane.
 
 use super::kernels::{coplanar_scale, Coplanar as Row};
-use super::{at, Constraint, ElementSpec};
+use super::{at, Constraint, ElementError, ElementSpec};
 
 #[derive(Debug)]
 pub struct Coplanar {
@@ -27,7 +27,7 @@ impl Coplanar {
 /// The parameters a model file may give this element (`elements::REGISTRY`).
 pub const PARAMS: &[&str] = &[];
 
-pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, String> {
+pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, ElementError> {
     spec.expect_joints(4, "p, a, b, c")?;
     spec.only_params(PARAMS)?;
     let [p, a, b, c] = [
@@ -41,7 +41,9 @@ pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, Stri
         (at(x0, b) - at(x0, p)).norm(),
     );
     if la <= 1e-9 || lb <= 1e-9 || (at(x0, c) - at(x0, p)).norm() <= 1e-9 {
-        return Err("two of its joints coincide; check the joint positions".into());
+        return Err(ElementError::Geometry(
+            "two of its joints coincide; check the joint positions".into(),
+        ));
     }
     Ok(Box::new(Coplanar {
         name: spec.name.clone(),

@@ -21,7 +21,7 @@
 //! With each sleeve's stroke sized to the lengths its deployment takes, a bay
 //! can neither fold tighter than that nor shear the wrong way past it.
 
-use super::{at, Constraint, ElementSpec, ElementSpring};
+use super::{at, Constraint, ElementError, ElementSpec, ElementSpring};
 
 #[derive(Debug)]
 pub struct EndStop {
@@ -42,7 +42,7 @@ pub const PARAMS: &[&str] = &[
     "damping_n_s_per_m",
 ];
 
-pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, String> {
+pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, ElementError> {
     spec.expect_joints(2, "the telescopic member's two end joints")?;
     spec.only_params(PARAMS)?;
     let (a, b) = (spec.joints[0], spec.joints[1]);
@@ -50,26 +50,30 @@ pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, Stri
     let max = spec.num("max_length_m")?.unwrap_or(f64::INFINITY);
     let min = spec.num("min_length_m")?.unwrap_or(0.0);
     if max == f64::INFINITY && min == 0.0 {
-        return Err(
+        return Err(ElementError::Param(
             "an end stop needs `max_length_m` and/or `min_length_m`, the ends of the stroke (m)"
                 .into(),
-        );
+        ));
     }
     if !(min >= 0.0 && max > min) {
-        return Err(format!(
+        return Err(ElementError::Param(format!(
             "the stroke from `min_length_m` = {min} to `max_length_m` = {max} must have 0 <= min < max"
-        ));
+        )));
     }
     // A start outside the stroke would begin with the stop already loaded.
     let slack = 1e-9 * max.min(1e3).max(1.0);
     if l0 > max + slack || l0 < min - slack {
-        return Err(format!(
+        return Err(ElementError::Geometry(format!(
             "its joints start {l0} m apart, outside the stroke [{min}, {max}] m; move a joint or widen the stroke"
-        ));
+        )));
     }
     let stop = spec
         .spring_damper("stiffness_n_per_m", "damping_n_s_per_m", "an end stop")?
-        .ok_or("an end stop needs `stiffness_n_per_m`, the stiffness of the stop (N/m)")?;
+        .ok_or_else(|| {
+            ElementError::Param(
+                "an end stop needs `stiffness_n_per_m`, the stiffness of the stop (N/m)".into(),
+            )
+        })?;
     Ok(Box::new(EndStop {
         name: spec.name.clone(),
         joints: [a, b],

@@ -27,7 +27,7 @@
 //!     Adot Xdot = (alpha/h^2 (T1'' - T2'') + beta/h T3'') / rho0.
 
 use super::hinge_axis::{hinge_start, hinge_vectors};
-use super::{Constraint, ElementSpec};
+use super::{Constraint, ElementError, ElementSpec};
 
 #[derive(Debug)]
 pub struct FrameHinge {
@@ -40,19 +40,21 @@ pub struct FrameHinge {
     rho0: f64,
 }
 
-pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, String> {
+pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, ElementError> {
     let ([p, q, r, a], u, v, _w, h, rho0, n0) = hinge_start(spec, x0, "frame member")?;
     let b2 = u.cross(&v) / h;
     if b2.norm() <= 1e-6 * rho0 {
-        return Err(
+        return Err(ElementError::Geometry(
             "the frame member p-r lies along the post p-q; it cannot carry a hinge axis".into(),
-        );
+        ));
     }
     let b1 = (v * u.dot(&u) - u * u.dot(&v)) / (h * h);
     // b1 and b2 are orthogonal and both square to the post, as n0 is.
     let (alpha, beta) = (b1.dot(&n0) / b1.dot(&b1), b2.dot(&n0) / b2.dot(&b2));
     if (b1 * alpha + b2 * beta - n0).norm() > 1e-9 {
-        return Err("the hinge axis is not square to the post".into());
+        return Err(ElementError::Geometry(
+            "the hinge axis is not square to the post".into(),
+        ));
     }
     Ok(Box::new(FrameHinge {
         name: spec.name.clone(),

@@ -13,7 +13,7 @@
 //! dPhi/dX_p = minus their sum.
 //! Adot Xdot = [2 alpha w'.v' + 2 beta/h (w'.(u' x v) + w'.(u x v') + w.(u' x v'))] / rho0.
 
-use super::{at, Constraint, ElementSpec};
+use super::{at, Constraint, ElementError, ElementSpec};
 use crate::solver::vec3::Vec3;
 
 /// The post u = X_q - X_p, the body member v = X_r - X_p and the hinged member
@@ -46,7 +46,7 @@ pub(super) fn hinge_start(
     spec: &ElementSpec,
     x0: &[f64],
     member: &str,
-) -> Result<([usize; 4], Vec3, Vec3, Vec3, f64, f64, Vec3), String> {
+) -> Result<([usize; 4], Vec3, Vec3, Vec3, f64, f64, Vec3), ElementError> {
     spec.expect_joints(
         4,
         &format!("hinge p, post end q, {member} end r, hinged member end a"),
@@ -62,26 +62,26 @@ pub(super) fn hinge_start(
     let (h, rho0) = (u.norm(), v.norm());
     let n0 = u.cross(&w);
     if h <= 1e-9 || rho0 <= 1e-9 || n0.norm() <= 1e-9 * h * w.norm() {
-        return Err(format!("the post, the {member} or the hinged member has zero length, or the member lies along the post"));
+        return Err(ElementError::Geometry(format!("the post, the {member} or the hinged member has zero length, or the member lies along the post")));
     }
     Ok((joints, u, v, w, h, rho0, n0.normalize()))
 }
 
-pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, String> {
+pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, ElementError> {
     let ([p, q, r, a], u, v, _w, h, rho0, n0) = hinge_start(spec, x0, "body member")?;
     // n0 = alpha v + beta (u x v)/h, least squares on the two body vectors
     let (b1, b2) = (v, u.cross(&v) / h);
     let (g11, g12, g22) = (b1.dot(&b1), b1.dot(&b2), b2.dot(&b2));
     let det = g11 * g22 - g12 * g12;
     if det.abs() <= 1e-12 * g11 * g22 {
-        return Err(
+        return Err(ElementError::Geometry(
             "the body member p-r lies along the post p-q; it cannot carry a hinge axis".into(),
-        );
+        ));
     }
     let (r1, r2) = (b1.dot(&n0), b2.dot(&n0));
     let (alpha, beta) = ((r1 * g22 - r2 * g12) / det, (r2 * g11 - r1 * g12) / det);
     if (alpha * b1 + beta * b2 - n0).norm() > 1e-9 {
-        return Err("the hinge axis is not in the plane square to the post; mount the body member p-r square to the post".into());
+        return Err(ElementError::Geometry("the hinge axis is not in the plane square to the post; mount the body member p-r square to the post".into()));
     }
     Ok(Box::new(HingeAxis {
         name: spec.name.clone(),

@@ -48,32 +48,32 @@ pub struct ElementSpec {
 }
 
 impl ElementSpec {
-    pub fn num(&self, key: &str) -> Result<Option<f64>, String> {
+    pub fn num(&self, key: &str) -> Result<Option<f64>, ElementError> {
         match self.params.get(key) {
             None => Ok(None),
             Some(Param::Num(v)) if v.is_finite() => Ok(Some(*v)),
-            Some(Param::Num(v)) => Err(format!(
+            Some(Param::Num(v)) => Err(ElementError::Param(format!(
                 "parameter `{key}` is {v}; it must be a finite number"
-            )),
-            Some(Param::Text(s)) => Err(format!(
+            ))),
+            Some(Param::Text(s)) => Err(ElementError::Param(format!(
                 "parameter `{key}` is the text \"{s}\"; it must be a number"
-            )),
+            ))),
         }
     }
-    pub fn text(&self, key: &str) -> Result<Option<&str>, String> {
+    pub fn text(&self, key: &str) -> Result<Option<&str>, ElementError> {
         match self.params.get(key) {
             None => Ok(None),
             Some(Param::Text(s)) => Ok(Some(s)),
-            Some(Param::Num(v)) => Err(format!(
+            Some(Param::Num(v)) => Err(ElementError::Param(format!(
                 "parameter `{key}` is the number {v}; it must be text"
-            )),
+            ))),
         }
     }
     /// Rejects parameters the element type does not know (typos would otherwise be silent).
-    pub fn only_params(&self, known: &[&str]) -> Result<(), String> {
+    pub fn only_params(&self, known: &[&str]) -> Result<(), ElementError> {
         for k in self.params.keys() {
             if !known.contains(&k.as_str()) {
-                return Err(format!(
+                return Err(ElementError::Param(format!(
                     "unknown parameter `{k}` for a {} element (known: {})",
                     self.kind,
                     if known.is_empty() {
@@ -81,18 +81,18 @@ impl ElementSpec {
                     } else {
                         known.join(", ")
                     }
-                ));
+                )));
             }
         }
         Ok(())
     }
     /// The element's axial stiffness EA (N) of its members, if the model file
     /// names one (`axial_stiffness_n`); positive and finite.
-    pub fn axial_stiffness(&self) -> Result<Option<f64>, String> {
+    pub fn axial_stiffness(&self) -> Result<Option<f64>, ElementError> {
         match self.num(AXIAL_STIFFNESS_KEY)? {
-            Some(ea) if ea <= 0.0 => Err(format!(
+            Some(ea) if ea <= 0.0 => Err(ElementError::Param(format!(
                 "`{AXIAL_STIFFNESS_KEY}` = {ea} must be positive (EA of the member, N)"
-            )),
+            ))),
             other => Ok(other),
         }
     }
@@ -104,28 +104,30 @@ impl ElementSpec {
         k_key: &str,
         c_key: &str,
         what: &str,
-    ) -> Result<Option<(f64, f64)>, String> {
+    ) -> Result<Option<(f64, f64)>, ElementError> {
         match (self.num(k_key)?, self.num(c_key)?) {
             (None, None) => Ok(None),
-            (None, Some(_)) => Err(format!("`{c_key}` needs `{k_key}` ({what})")),
+            (None, Some(_)) => Err(ElementError::Param(format!(
+                "`{c_key}` needs `{k_key}` ({what})"
+            ))),
             (Some(k), c) => {
                 let c = c.unwrap_or(0.0);
                 if k <= 0.0 || c < 0.0 {
-                    return Err(format!(
+                    return Err(ElementError::Param(format!(
                         "`{k_key}` = {k} must be > 0 and `{c_key}` = {c} >= 0"
-                    ));
+                    )));
                 }
                 Ok(Some((k, c)))
             }
         }
     }
-    pub fn expect_joints(&self, n: usize, roles: &str) -> Result<(), String> {
+    pub fn expect_joints(&self, n: usize, roles: &str) -> Result<(), ElementError> {
         if self.joints.len() != n {
-            return Err(format!(
+            return Err(ElementError::Joints(format!(
                 "a {} element takes {n} joints ({roles}), but {} are given",
                 self.kind,
                 self.joints.len()
-            ));
+            )));
         }
         Ok(())
     }
@@ -257,7 +259,7 @@ macro_rules! identity {
 }
 use identity;
 
-type Builder = fn(&ElementSpec, &[f64]) -> Result<Box<dyn Constraint>, String>;
+type Builder = fn(&ElementSpec, &[f64]) -> Result<Box<dyn Constraint>, ElementError>;
 
 /// The registry: model-file type name, what it is, the parameters its
 /// constructor accepts (each module's `PARAMS`, which its `build` checks;
@@ -342,14 +344,14 @@ pub const REGISTRY: &[(&str, &str, &[&str], Builder)] = &[
     ),
 ];
 
-pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, String> {
+pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, ElementError> {
     match REGISTRY.iter().find(|(k, _, _, _)| *k == spec.kind) {
         Some((_, _, _, b)) => b(spec, x0),
-        None => Err(format!(
+        None => Err(ElementError::Kind(format!(
             "unknown element type `{}` (known: {})",
             spec.kind,
             REGISTRY.iter().map(|r| r.0).collect::<Vec<_>>().join(", ")
-        )),
+        ))),
     }
 }
 
@@ -435,3 +437,32 @@ pub mod kernels {
         1.0 / (l1 * l2).max(1e-12)
     }
 }
+
+/// Why an element cannot be built from its spec (`build`); the message
+/// says which parameter, joint or dimension, and what to change (the
+/// model's loader adds the element, the file and the line).
+#[derive(Clone, Debug, PartialEq)]
+pub enum ElementError {
+    /// No element type of that name.
+    Kind(String),
+    /// A parameter unknown to the type, of the wrong type, or out of range.
+    Param(String),
+    /// The number of joints the type takes.
+    Joints(String),
+    /// The initial geometry cannot make it (coincident joints, a zero
+    /// length, an axis along a member).
+    Geometry(String),
+}
+
+impl fmt::Display for ElementError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            ElementError::Kind(m)
+            | ElementError::Param(m)
+            | ElementError::Joints(m)
+            | ElementError::Geometry(m) => f.write_str(m),
+        }
+    }
+}
+
+impl std::error::Error for ElementError {}

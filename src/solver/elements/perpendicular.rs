@@ -6,7 +6,7 @@
 //! Used where a telescopic member is mounted square to a post, e.g. the radial
 //! members of a double-ring truss.
 
-use super::{at, Constraint, ElementSpec};
+use super::{at, Constraint, ElementError, ElementSpec};
 
 #[derive(Debug)]
 pub struct Perpendicular {
@@ -18,7 +18,7 @@ pub struct Perpendicular {
 /// The parameters a model file may give this element (`elements::REGISTRY`).
 pub const PARAMS: &[&str] = &[];
 
-pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, String> {
+pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, ElementError> {
     spec.expect_joints(
         3,
         "the corner p, then q and r at the ends of the two members",
@@ -30,7 +30,9 @@ pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, Stri
         (at(x0, j[2]) - at(x0, j[0])).norm(),
     );
     if l1 <= 1e-9 || l2 <= 1e-9 {
-        return Err("a member of zero length; check the joint positions".into());
+        return Err(ElementError::Geometry(
+            "a member of zero length; check the joint positions".into(),
+        ));
     }
     Ok(Box::new(Perpendicular {
         name: spec.name.clone(),

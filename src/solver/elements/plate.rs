@@ -11,7 +11,7 @@
 //! comparison (and for non-flat quadrilaterals, where it is the right one).
 
 use super::kernels::{coplanar_scale, Coplanar, Distance};
-use super::{at, Constraint, ElementSpec};
+use super::{at, Constraint, ElementError, ElementSpec};
 
 #[derive(Debug)]
 pub struct Plate {
@@ -50,16 +50,16 @@ impl Plate {
 /// The parameters a model file may give this element (`elements::REGISTRY`).
 pub const PARAMS: &[&str] = &["formulation", super::AXIAL_STIFFNESS_KEY];
 
-pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, String> {
+pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, ElementError> {
     spec.expect_joints(4, "its corners i, j, k, l in cyclic order")?;
     spec.only_params(PARAMS)?;
     let six_bars = match spec.text("formulation")?.unwrap_or("flat") {
         "flat" => false,
         "six_bars" => true,
         other => {
-            return Err(format!(
+            return Err(ElementError::Geometry(format!(
                 "`formulation` = \"{other}\"; use \"flat\" (5 bars + coplanarity) or \"six_bars\""
-            ))
+            )))
         }
     };
     let j4 = [
@@ -72,7 +72,9 @@ pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, Stri
     for (r, (a, b)) in PAIRS.iter().enumerate() {
         lengths[r] = (at(x0, j4[*b]) - at(x0, j4[*a])).norm();
         if lengths[r] <= 1e-9 {
-            return Err("two of its corners coincide; check the joint positions".into());
+            return Err(ElementError::Geometry(
+                "two of its corners coincide; check the joint positions".into(),
+            ));
         }
     }
     let scale = coplanar_scale(lengths[0], lengths[4]);

@@ -14,7 +14,7 @@
 //! Free element: 12 coordinates - rank 5 = 7 DOF (6 rigid + the scissor angle).
 
 use super::kernels::{coplanar_scale, Coplanar, Distance};
-use super::{at, Constraint, ElementSpec};
+use super::{at, Constraint, ElementError, ElementSpec};
 
 #[derive(Debug)]
 pub struct Scissor {
@@ -58,12 +58,14 @@ impl Scissor {
 /// The parameters a model file may give this element (`elements::REGISTRY`).
 pub const PARAMS: &[&str] = &["ratio", super::AXIAL_STIFFNESS_KEY];
 
-pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, String> {
+pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, ElementError> {
     spec.expect_joints(4, "rod 1 from i to j, rod 2 from k to l")?;
     spec.only_params(PARAMS)?;
     let ratio = spec.num("ratio")?.unwrap_or(1.0);
     if ratio <= 0.0 {
-        return Err(format!("`ratio` = {ratio} (|Oj|/|Oi|) must be positive"));
+        return Err(ElementError::Param(format!(
+            "`ratio` = {ratio} (|Oj|/|Oi|) must be positive"
+        )));
     }
     let [i, j, k, l] = [
         spec.joints[0],
@@ -74,7 +76,9 @@ pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, Stri
     let l_ij = (at(x0, j) - at(x0, i)).norm();
     let l_kl = (at(x0, l) - at(x0, k)).norm();
     if l_ij <= 1e-9 || l_kl <= 1e-9 {
-        return Err("zero-length scissor rod; check the joint positions".into());
+        return Err(ElementError::Geometry(
+            "zero-length scissor rod; check the joint positions".into(),
+        ));
     }
     Ok(Box::new(Scissor {
         name: spec.name.clone(),

@@ -4,7 +4,7 @@
 //! zero of the gap g(X) = |X_b - X_a| - L_lock, approached from either side.
 
 use super::kernels::Distance;
-use super::{at, Constraint, ElementSpec, LockCondition};
+use super::{at, Constraint, ElementError, ElementSpec, LockCondition};
 
 #[derive(Debug)]
 pub struct Sleeve {
@@ -44,21 +44,25 @@ pub const PARAMS: &[&str] = &[
     "latch_damping_n_s_per_m",
 ];
 
-pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, String> {
+pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, ElementError> {
     spec.expect_joints(2, "its two end joints")?;
     spec.only_params(PARAMS)?;
     let (a, b) = (spec.joints[0], spec.joints[1]);
     let l0 = (at(x0, b) - at(x0, a)).norm();
     if l0 <= 1e-9 {
-        return Err(format!(
+        return Err(ElementError::Geometry(format!(
             "zero-length sleeve (its joints are {l0:.3e} m apart); move one end joint"
-        ));
+        )));
     }
-    let lock = spec
-        .num("lock_length_m")?
-        .ok_or("a sleeve needs `lock_length_m`, the design length at which it latches")?;
+    let lock = spec.num("lock_length_m")?.ok_or_else(|| {
+        ElementError::Param(
+            "a sleeve needs `lock_length_m`, the design length at which it latches".into(),
+        )
+    })?;
     if lock <= 1e-9 {
-        return Err(format!("`lock_length_m` = {lock} must be positive"));
+        return Err(ElementError::Param(format!(
+            "`lock_length_m` = {lock} must be positive"
+        )));
     }
     let latch_spring = spec.spring_damper(
         "latch_stiffness_n_per_m",

@@ -1,7 +1,7 @@
 //! Support: fixes some of a joint's Cartesian coordinates at their initial values,
 //! Phi_c = X_c - X0_c for each fixed axis c (one row each, linear, Adot Xdot = 0).
 
-use super::{Constraint, ElementSpec};
+use super::{Constraint, ElementError, ElementSpec};
 
 #[derive(Debug)]
 pub struct Support {
@@ -13,7 +13,7 @@ pub struct Support {
 /// The parameters a model file may give this element (`elements::REGISTRY`).
 pub const PARAMS: &[&str] = &["fix"];
 
-pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, String> {
+pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, ElementError> {
     spec.expect_joints(1, "the supported joint")?;
     spec.only_params(PARAMS)?;
     let fix = spec.text("fix")?.unwrap_or("xyz");
@@ -25,9 +25,9 @@ pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, Stri
         }
     }
     if fixed.is_empty() || fix.chars().any(|c| !"xyz".contains(c)) {
-        return Err(format!(
+        return Err(ElementError::Geometry(format!(
             "`fix` = \"{fix}\"; give the fixed axes as letters from \"xyz\", e.g. \"xz\""
-        ));
+        )));
     }
     Ok(Box::new(Support {
         name: spec.name.clone(),

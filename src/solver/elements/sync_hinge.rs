@@ -11,7 +11,7 @@
 //! (a gear train's torsional compliance seen at the members' far ends): the
 //! rows are not imposed but held by the spring-damper -A^T (k Phi + c A Xdot).
 
-use super::{at, Constraint, ElementSpec, ElementSpring};
+use super::{at, Constraint, ElementError, ElementSpec, ElementSpring};
 
 #[derive(Debug)]
 pub struct SyncHinge {
@@ -26,7 +26,7 @@ pub struct SyncHinge {
 /// The parameters a model file may give this element (`elements::REGISTRY`).
 pub const PARAMS: &[&str] = &["mirror", "stiffness_n_per_m", "damping_n_s_per_m"];
 
-pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, String> {
+pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, ElementError> {
     spec.expect_joints(5, "hinge p, post end q, radial end r, member ends a and b")?;
     spec.only_params(PARAMS)?;
     let spring = spec.spring_damper("stiffness_n_per_m", "damping_n_s_per_m", "compliant gears")?;
@@ -42,18 +42,18 @@ pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, Stri
         "axial" => &[1],
         "radial" => &[2],
         other => {
-            return Err(format!(
+            return Err(ElementError::Geometry(format!(
                 "`mirror` = \"{other}\"; use \"both\", \"axial\" or \"radial\""
-            ))
+            )))
         }
     };
     let mut axes = Vec::new();
     for &k in which {
         let l = (at(x0, j[k]) - at(x0, j[0])).norm();
         if l <= 1e-9 {
-            return Err(
+            return Err(ElementError::Geometry(
                 "the hinge axis or radial member has zero length; check the joint positions".into(),
-            );
+            ));
         }
         axes.push((k, 1.0 / l));
     }

@@ -193,6 +193,20 @@ impl Simulator {
             .map(|t| t.force_n)
     }
 
+    /// How nearly dependent the constraint rows are at the state
+    /// (`mobility::near_dependence`: a dense SVD, up to
+    /// `rank_check_max_coords`; None above it).
+    pub fn near_dependence(&mut self) -> Option<crate::solver::mobility::NearDependence> {
+        if self.model.n_coords() > self.settings.rank_check_max_coords {
+            return None;
+        }
+        self.core.jac.fill(&self.model, &self.state.x);
+        Some(crate::solver::mobility::near_dependence(
+            &self.model,
+            &self.core.jac,
+        ))
+    }
+
     /// Sets when a step gives up early (`SolverError::Stopped`, the state at
     /// its last accepted sub-step): a deadline, a cancel flag.
     pub fn set_step_limits(&mut self, limits: StepLimits) {

@@ -156,7 +156,7 @@ impl Simulator {
     /// The caller's limits (`StepLimits`), and at most `max_substeps` sub-steps
     /// (four more per lockable element, for latch events) in a step.
     fn check_step_limits(&self, substeps: usize, t_end: f64) -> Result<(), SolverError> {
-        if let Some(why) = self.limits.reached() {
+        if let Some(why) = self.limits.reached(self.core.stats.accepting_fallbacks()) {
             return Err(SolverError::Stopped {
                 t_s: self.state.t_s,
                 why,
