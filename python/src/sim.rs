@@ -168,6 +168,10 @@ impl RunObserver for Recorder<'_> {
     }
 }
 
+/// What a pickled Simulator is made again from: its model, solver,
+/// snapshot (JSON) and mechanisms at the start.
+type SimulatorPickle = (PyModel, &'static str, Py<PyBytes>, usize);
+
 /// A cable by name or index.
 #[derive(FromPyObject)]
 enum CableRef {
@@ -555,10 +559,7 @@ impl PySim {
         Ok(())
     }
 
-    fn __reduce__(
-        &self,
-        py: Python<'_>,
-    ) -> PyResult<(Py<PyAny>, (PyModel, &'static str, Py<PyBytes>, usize))> {
+    fn __reduce__(&self, py: Python<'_>) -> PyResult<(Py<PyAny>, SimulatorPickle)> {
         let f = py
             .import("truss_deploy._native")?
             .getattr("_simulator_from_pickle")?
