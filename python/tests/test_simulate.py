@@ -173,11 +173,17 @@ def test_a_wall_limit_stops_the_run_with_what_was_computed():
 
 def test_ctrl_c_stops_a_run_cleanly():
     sim = td.Simulator(td.load(MODELS / "double_ring.toml"), record=True)
+    # (Python's own SIGINT handler, as in a terminal or a notebook: a process
+    # started in the background by a script inherits SIGINT ignored)
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
     timer = threading.Timer(0.5, lambda: os.kill(os.getpid(), signal.SIGINT))
-    timer.start()
-    with pytest.raises(KeyboardInterrupt):
-        sim.run()
-    timer.join()
+    try:
+        timer.start()
+        with pytest.raises(KeyboardInterrupt):
+            sim.run()
+    finally:
+        timer.join()
+        signal.signal(signal.SIGINT, previous)
     s = sim.last_summary
     assert s["stop_reason"] == "interrupted" and s["time_s"] == sim.t_s > 0
     assert len(sim.history()) == sim.steps + 1
