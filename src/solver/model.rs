@@ -145,6 +145,11 @@ pub struct ModelParts {
 }
 
 impl Model {
+    /// The lock gap of element e at x (m; NaN for an element that does not lock).
+    pub fn lock_gap_m(&self, e: usize, x: &[f64]) -> f64 {
+        self.elements[e].lock_gap(x).unwrap_or(f64::NAN)
+    }
+
     /// Builds the model, checking what the solver relies on. Errors name the
     /// offending item (`what`); the model-file layer adds file and line.
     pub fn build(p: ModelParts) -> Result<Model, ModelError> {

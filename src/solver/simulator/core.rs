@@ -3,7 +3,7 @@
 //! factorization and solve of the stepping loop goes through `factor`,
 //! `solve_accelerations` and `correction`, which book the backend's reports.
 
-use super::newton::NewtonWork;
+use super::work::{MotorWork, NewtonWork};
 use crate::solver::cable::CableEval;
 use crate::solver::jacobian::Jacobian;
 use crate::solver::least_work::LeastWork;
@@ -36,21 +36,13 @@ pub(super) struct Core {
     pub lambda: Vec<f64>,
     pub cables: Vec<CableEval>,
     pub violation_m: f64,
-    /// The step length while a Newmark step takes damping implicitly: the
-    /// solves then use the inverse masses 1 / (m + gamma h c).
-    pub implicit_h: Option<f64>,
+    /// A Newmark trial's inverse masses 1 / (m + gamma h c) (its damping
+    /// implicit, `Pose::implicit_damping`) and V* = V_n + (1 - gamma) h A_n.
     pub inv_mass_eff: Vec<f64>,
     pub v_star: Vec<f64>,
-    /// Per cable, the pulley sliding speeds at the step start; whether the
-    /// iteration takes the friction direction from them (`lagged_friction`).
+    /// Per cable, the pulley sliding speeds at the trial's start (the lagged
+    /// friction directions, `Pose::lagged_friction`, and the blend's start).
     pub friction_sliding: Vec<Vec<f64>>,
-    pub lagged_friction: bool,
-    /// The Newton steps take the friction's secant slopes back to the step
-    /// start: their retry after a failed line search.
-    pub newton_secant: bool,
-    /// The trial is a backward-Euler step (beta = 1/2, gamma = 1) instead of
-    /// the average acceleration (1/4, 1/2).
-    pub backward_euler: bool,
     /// Buffers of the Newton steps of the Newmark iteration.
     pub newton: NewtonWork,
     /// The trial went through the friction blend's fast transient
@@ -65,7 +57,7 @@ pub(super) struct Core {
     /// The compliant elements' and engaged compliant latches' buffers.
     pub element_springs: crate::solver::springs::ElementSprings,
     /// Speed-controlled motors: which track in the current solve, and their buffers.
-    pub motor: super::motor::MotorWork,
+    pub motor: MotorWork,
     /// What the stepping loop did (the aux solver's work is not counted).
     pub stats: SolverStats,
     /// Elastic members: per row its compliance c (m/N; `rigid_compliance`
@@ -76,10 +68,6 @@ pub(super) struct Core {
     pub row_d: Vec<f64>,
     pub row_phi: Vec<f64>,
     pub row_rate: Vec<f64>,
-    /// Set while solves are compliant: the step length they are scaled to,
-    /// and whether they hold Phi + tau Phidot + c lambda = 0 at the Newmark
-    /// positions (index 3) rather than at acceleration level.
-    pub compliant: Option<(f64, bool)>,
     /// The members' relaxation time tau (s, `member_relaxation_s`).
     pub relaxation_s: f64,
     /// Elastic members: strain energy 1/2 sum Phi_i^2 / c_i at the trial's
@@ -109,7 +97,6 @@ impl Core {
             lambda: vec![0.0; m],
             cables: model.cables.iter().map(CableEval::for_cable).collect(),
             violation_m: 0.0,
-            implicit_h: None,
             inv_mass_eff: model.inv_mass.clone(),
             v_star: vec![0.0; n],
             friction_sliding: model
@@ -117,22 +104,18 @@ impl Core {
                 .iter()
                 .map(|c| vec![0.0; c.path.len().saturating_sub(2)])
                 .collect(),
-            lagged_friction: false,
-            newton_secant: false,
-            backward_euler: false,
             blend_entry: false,
             newton_last: false,
             newton: NewtonWork::new(model.solver.newmark_newton_krylov_max, n, m),
             least_work: None,
             element_springs: crate::solver::springs::ElementSprings::new(model),
-            motor: super::motor::MotorWork::new(model, m),
+            motor: MotorWork::new(model, m),
             stats: SolverStats::default(),
             row_compliance: Vec::new(),
             row_member: Vec::new(),
             row_d: Vec::new(),
             row_phi: Vec::new(),
             row_rate: Vec::new(),
-            compliant: None,
             relaxation_s: model.solver.member_relaxation_s,
             strain_trial_j: 0.0,
             member_force_trial: vec![0.0; n],
@@ -172,24 +155,11 @@ impl Core {
         h * (0.25 * h + 0.5 * self.relaxation_s)
     }
 
-    /// The same in a trial step under its rule: beta h^2 + tau gamma h.
-    pub fn step_relaxation_beta(&self, h: f64) -> f64 {
-        if self.backward_euler {
-            self.step_gains(h).spring(1.0, self.relaxation_s)
-        } else {
-            self.relaxation_beta(h)
-        }
-    }
-
-    /// What X_{n+1} and V_{n+1} move per unit of A_{n+1} under the trial's rule.
-    pub fn step_gains(&self, h: f64) -> StepGains {
-        if self.backward_euler {
-            StepGains {
-                position_s2: 0.5 * h * h,
-                velocity_s: h,
-            }
-        } else {
-            StepGains::trapezoid(h)
+    /// The same in a trial step of length h under `rule`: beta h^2 + tau gamma h.
+    pub fn step_relaxation_beta(&self, h: f64, rule: StepRule) -> f64 {
+        match rule {
+            StepRule::BackwardEuler => rule.gains(h).spring(1.0, self.relaxation_s),
+            StepRule::AverageAcceleration => self.relaxation_beta(h),
         }
     }
 
@@ -227,23 +197,26 @@ impl Core {
         self.set_compliance(model);
     }
 
-    /// The solves' inverse masses: M^-1, or (M + gamma h C)^-1 inside a Newmark step.
-    pub(super) fn weights<'a>(
-        implicit_h: Option<f64>,
-        eff: &'a [f64],
-        model: &'a Model,
-    ) -> &'a [f64] {
-        if implicit_h.is_some() {
+    /// The solves' inverse masses: M^-1, or (M + gamma h C)^-1 inside a
+    /// Newmark trial (`Pose::implicit_damping`).
+    pub(super) fn weights<'a>(pose: Pose, eff: &'a [f64], model: &'a Model) -> &'a [f64] {
+        if pose.implicit_damping {
             eff
         } else {
             &model.inv_mass
         }
     }
 
-    /// Jacobian at the trial x, and a factorization for solves in `mode`.
-    pub fn factor(&mut self, model: &Model, mode: SolveMode) -> Result<(), SolverError> {
+    /// Jacobian at the trial x, and a factorization for solves in `mode`
+    /// with the inverse masses of `pose`.
+    pub fn factor(
+        &mut self,
+        model: &Model,
+        mode: SolveMode,
+        pose: Pose,
+    ) -> Result<(), SolverError> {
         self.jac.fill(model, &self.x);
-        let w = Self::weights(self.implicit_h, &self.inv_mass_eff, model);
+        let w = Self::weights(pose, &self.inv_mass_eff, model);
         let report = self.solver.factor(&self.jac, w, mode)?;
         self.book_factor(report);
         Ok(())
@@ -273,22 +246,22 @@ impl Core {
     }
 
     /// Constrained accelerations `a`, multipliers `lambda` for the applied
-    /// forces `q` and the right side `c`, with the current factorization.
-    pub fn solve_accelerations(&mut self, model: &Model) -> Result<(), SolverError> {
-        let w = Self::weights(self.implicit_h, &self.inv_mass_eff, model);
-        let report = if let Some((h, iterating)) = self.compliant {
-            // D = c / beta (the trial's rule inside the Newmark iteration,
-            // else the average acceleration's)
-            let beta = if iterating {
-                self.step_relaxation_beta(h)
-            } else {
-                self.relaxation_beta(h)
+    /// forces `q` and the right side `c`, with the current factorization,
+    /// the rows held as `pose` says.
+    pub fn solve_accelerations(&mut self, model: &Model, pose: Pose) -> Result<(), SolverError> {
+        let w = Self::weights(pose, &self.inv_mass_eff, model);
+        let report = if let Some(h) = pose.rows.elastic_h() {
+            // D = c / beta (the trial's rule in the Newmark iteration, else
+            // the average acceleration's)
+            let beta = match pose.rows {
+                Rows::ElasticStep { h, rule } => self.step_relaxation_beta(h, rule),
+                _ => self.relaxation_beta(h),
             };
             let k = 1.0 / beta;
             for (d, c) in self.row_d.iter_mut().zip(&self.row_compliance) {
                 *d = k * c;
             }
-            if let Some((_, false)) = self.compliant {
+            if let Rows::ElasticForces { .. } = pose.rows {
                 // (at acceleration level a member's force is its state's,
                 // lambda = -(Phi + tau A V) / c: D >> S, rhs D lambda in `c`)
                 for i in 0..self.row_d.len() {
@@ -372,7 +345,6 @@ impl Core {
             self.q[3 * jb + k] = u[k];
         }
         self.c.fill(0.0);
-        debug_assert!(self.implicit_h.is_none(), "between steps: plain masses");
         if let Some(h) = step_s {
             self.jac.fill(model, &self.x);
             let d = rigid_compliance(model) / self.relaxation_beta(h);
@@ -388,7 +360,7 @@ impl Core {
             )?;
             self.book_solve(report);
         } else {
-            self.solve_accelerations(model)?;
+            self.solve_accelerations(model, Pose::PLAIN)?;
         }
         Ok((0..3)
             .map(|k| u[k] * (self.a[3 * jb + k] - self.a[3 * ja + k]))
@@ -457,4 +429,76 @@ pub(super) struct TrialCopy {
     /// Elastic members: the trial's strain energy (J) and member forces.
     strain_j: f64,
     member_force: Vec<f64>,
+}
+
+/// The rule of a Newmark trial: X_{n+1} = X_n + h V_n + h^2 ((1/2 - beta) A_n
+/// + beta A_{n+1}), V_{n+1} = V_n + h ((1 - gamma) A_n + gamma A_{n+1}).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum StepRule {
+    /// beta = 1/4, gamma = 1/2: the trapezoid, which conserves energy.
+    #[default]
+    AverageAcceleration,
+    /// beta = 1/2, gamma = 1 (A_n drops out): damps a fast transient that
+    /// the trapezoid leaves ringing (docs/solver.md, Backward-Euler steps).
+    BackwardEuler,
+}
+
+impl StepRule {
+    /// What X_{n+1} and V_{n+1} move per unit of A_{n+1} in a step of length h.
+    pub fn gains(self, h: f64) -> StepGains {
+        match self {
+            StepRule::BackwardEuler => StepGains {
+                position_s2: 0.5 * h * h,
+                velocity_s: h,
+            },
+            StepRule::AverageAcceleration => StepGains::trapezoid(h),
+        }
+    }
+}
+
+/// How a solve holds the constraint rows.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Rows {
+    /// Rigid: A a = -Adot Xdot.
+    Rigid,
+    /// Elastic members at acceleration level, each member's force the
+    /// state's, lambda = -(Phi + tau A V) / c, the other rows' compliance
+    /// scaled to a step of length h (a restart: `consistent_accelerations`).
+    ElasticForces { h: f64 },
+    /// Elastic members in a Newmark step of length h under `rule`:
+    /// Phi + tau Phidot + c lambda = 0 at its end (index 3).
+    ElasticStep { h: f64, rule: StepRule },
+}
+
+impl Rows {
+    /// The step the elastic rows are scaled to; None for rigid rows.
+    pub fn elastic_h(self) -> Option<f64> {
+        match self {
+            Rows::Rigid => None,
+            Rows::ElasticForces { h } | Rows::ElasticStep { h, .. } => Some(h),
+        }
+    }
+}
+
+/// How the constrained solves of a stage are posed, passed to every solve
+/// (nothing of it is set on the workspace).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Pose {
+    pub rows: Rows,
+    /// Inside a Newmark trial: damping implicit, the solves on
+    /// (M + gamma h C)^-1 (`Core::inv_mass_eff`), the dampers on V*.
+    pub implicit_damping: bool,
+    /// The pulley friction's direction from the sliding at the trial's start
+    /// (`Core::friction_sliding`: the stalled iteration's fallback), not the
+    /// iterate's.
+    pub lagged_friction: bool,
+}
+
+impl Pose {
+    /// Between steps: rigid rows, plain masses, the friction of the iterate.
+    pub const PLAIN: Pose = Pose {
+        rows: Rows::Rigid,
+        implicit_damping: false,
+        lagged_friction: false,
+    };
 }

@@ -10,15 +10,20 @@
 //! (`SolverError::LatchSearch`); an element found past its lock without latching after a latch
 //! event (`SolverError::MissedLatch`). A touch whose check step fails fails the sub-step.
 
-use super::Simulator;
+use super::core::StepRule;
+use super::sim::Simulator;
 use crate::solver::elements::Constraint;
 use crate::solver::linsolve::SolveMode;
 use crate::solver::model::Model;
+use crate::solver::state::State;
 use crate::solver::SolverError;
 
-/// The lock gap of element e at x (NaN for an element that does not lock).
-pub(super) fn gap(model: &Model, e: usize, x: &[f64]) -> f64 {
-    model.elements[e].lock_gap(x).unwrap_or(f64::NAN)
+/// Whether a sleeve is held at its lock: latched, or its compliant latch
+/// engaged (its transient lasts) or waiting for the others' to end.
+pub(super) fn held(s: &State, e: usize) -> bool {
+    s.locked[e]
+        || s.transients.iter().any(|t| t.element == e)
+        || s.carry.waiting.iter().any(|w| w.element == e)
 }
 
 /// The first lockable element other than `except` and not `held` (latched or engaging) whose gap
@@ -35,7 +40,7 @@ pub(super) fn crossed_unlatched(
         if Some(e) == except || held(e) {
             return false;
         }
-        let (g0, g1) = (gap(model, e, x0), gap(model, e, x1));
+        let (g0, g1) = (model.lock_gap_m(e, x0), model.lock_gap_m(e, x1));
         g0 != 0.0 && g0 * g1 < 0.0 && g1.abs() > tol
     })
 }
@@ -92,7 +97,7 @@ impl Simulator {
         let iterations = st.dip_search_iterations;
         let mut best: Option<(f64, usize, f64)> = None;
         for &e in &model.locks {
-            if super::impact::held(s, e) {
+            if held(s, e) {
                 continue;
             }
             let el = model.elements[e].as_ref();
@@ -169,7 +174,7 @@ impl Simulator {
     pub(super) fn locate_latch(
         &mut self,
         mut target: usize,
-        h: f64,
+        (h, rule): (f64, StepRule),
         s_hi: f64,
     ) -> Result<Option<f64>, SolverError> {
         let mode = SolveMode::MinNorm;
@@ -179,15 +184,15 @@ impl Simulator {
             b = s_hi * h;
             self.core.stats.latch_search_steps += 1;
             // a failing check step fails the sub-step: a touch is never dropped unchecked
-            self.newmark_trial(b, mode)?;
+            self.newmark_trial(b, rule, mode)?;
             let st = &self.settings;
             // an element crossed by then comes first (ring diagonals before radial sleeves touch)
             if let Some(other) = self.crossed_by(target) {
                 target = other;
             } else {
                 let (g0, gb) = (
-                    gap(&self.model, target, &self.state.x),
-                    gap(&self.model, target, &self.core.x),
+                    self.model.lock_gap_m(target, &self.state.x),
+                    self.model.lock_gap_m(target, &self.core.x),
                 );
                 if gb.abs() <= st.lock_tol_m {
                     return Ok(Some(b));
@@ -197,9 +202,9 @@ impl Simulator {
                 }
             }
         }
-        let g0 = gap(&self.model, target, &self.state.x);
+        let g0 = self.model.lock_gap_m(target, &self.state.x);
         let (mut a, mut ga) = (0.0, g0);
-        let mut gb = gap(&self.model, target, &self.core.x);
+        let mut gb = self.model.lock_gap_m(target, &self.core.x);
         let mut side = 0i32;
         let mut iterations = 0;
         while iterations < self.settings.root_max_iterations {
@@ -209,16 +214,16 @@ impl Simulator {
             if !(m > a && m < b) {
                 m = 0.5 * (a + b);
             }
-            self.search_step(m)?;
+            self.search_step(m, rule)?;
             let st = &self.settings;
-            let gm = gap(&self.model, target, &self.core.x);
+            let gm = self.model.lock_gap_m(target, &self.core.x);
             // did another element already cross before m?
             if let Some(other) = self.crossed_by(target) {
                 target = other;
                 a = 0.0;
-                ga = gap(&self.model, target, &self.state.x);
+                ga = self.model.lock_gap_m(target, &self.state.x);
                 b = m;
-                gb = gap(&self.model, target, &self.core.x);
+                gb = self.model.lock_gap_m(target, &self.core.x);
                 side = 0;
                 // a crossing within a vanishing part of the sub-step is the projection's,
                 // not the motion's: nothing locates it in time
@@ -248,9 +253,9 @@ impl Simulator {
         }
         // iteration limit: the bracket's far end is accepted within the latch tolerance
         // (counted fallback), else the search has failed
-        self.search_step(b)?;
+        self.search_step(b, rule)?;
         let st = &self.settings;
-        let gb = gap(&self.model, target, &self.core.x);
+        let gb = self.model.lock_gap_m(target, &self.core.x);
         if gb.abs() <= st.latch_tol_m() {
             self.core.stats.fallbacks.root_search_limit += 1;
             return Ok(Some(b));
@@ -266,16 +271,16 @@ impl Simulator {
     /// One latch-search trial step of length h, in least squares: trials lie just short of a latch,
     /// typically the flat deployed state, where redundant rows are only nearly redundant. One that
     /// fails fails the sub-step: retried shorter down to `min_substep_fraction`, else the error.
-    fn search_step(&mut self, h: f64) -> Result<(), SolverError> {
+    fn search_step(&mut self, h: f64, rule: StepRule) -> Result<(), SolverError> {
         self.core.stats.latch_search_steps += 1;
-        self.newmark_trial(h, SolveMode::MinNorm)
+        self.newmark_trial(h, rule, SolveMode::MinNorm)
     }
 
     /// Another unlocked element whose gap changed sign beyond the latch tolerance in this trial.
     fn crossed_by(&self, target: usize) -> Option<usize> {
         crossed_unlatched(
             &self.model,
-            &|e| super::impact::held(&self.state, e),
+            &|e| held(&self.state, e),
             &self.state.x,
             &self.core.x,
             self.settings.lock_tol_m,
@@ -286,7 +291,7 @@ impl Simulator {
 
 #[cfg(test)]
 mod tests {
-    use super::{crossed_unlatched, gap};
+    use super::crossed_unlatched;
     use crate::model::generate::{self, MastParams};
 
     /// The missed-latch check finds a sleeve past its lock unless locked, excepted or within `tol`.
@@ -303,7 +308,7 @@ mod tests {
             .collect();
         let mut locked = vec![false; m.elements.len()];
         let e = crossed_unlatched(&m, &|e| locked[e], &x0, &x1, 1e-9, None).expect("a crossing");
-        assert!(gap(&m, e, &x0) < 0.0 && gap(&m, e, &x1) > 1e-9);
+        assert!(m.lock_gap_m(e, &x0) < 0.0 && m.lock_gap_m(e, &x1) > 1e-9);
         assert_eq!(
             crossed_unlatched(&m, &|e| locked[e], &x0, &x0, 1e-9, None),
             None

@@ -9,14 +9,14 @@
 //! (`transient_step_s`); once settled it turns rigid (`turn_rigid`). With elastic members the
 //! sleeve's row, of compliance c = L/EA + 1/k, then holds its deflection.
 
-use super::core::Core;
-use super::events::gap;
-use super::Simulator;
+use super::core::{Core, Pose};
+use super::events::held;
+use super::sim::Simulator;
 use crate::solver::linsolve::SolveMode;
 use crate::solver::model::Model;
 use crate::solver::settings::SolverSettings;
 use crate::solver::springs::sleeve_motion_at;
-use crate::solver::state::{Carry, LatchTransient, LockEvent, State, WaitingLatch};
+use crate::solver::state::{Carry, LatchTransient, LockEvent, WaitingLatch};
 use crate::solver::SolverError;
 
 impl Core {
@@ -34,12 +34,12 @@ impl Core {
     ) -> Result<(), SolverError> {
         if st.elastic_members {
             // (elastic members keep their stretch: the latch is at its lock)
-            self.factor(model, mode)?;
+            self.factor(model, mode, Pose::PLAIN)?;
             self.elastic_velocity_jump(model)?;
             return self.consistent_accelerations(model, cmd, st, carry);
         }
         self.project_positions(model, st, mode)?;
-        self.factor(model, mode)?;
+        self.factor(model, mode, Pose::PLAIN)?;
         self.project_velocities(model, st, mode)?;
         self.consistent_accelerations(model, cmd, st, carry)
     }
@@ -86,7 +86,8 @@ impl Simulator {
             .iter()
             .copied()
             .filter(|&e| {
-                !held(&self.state, e) && gap(model, e, &self.state.x).abs() <= st.latch_tol_m()
+                !held(&self.state, e)
+                    && model.lock_gap_m(e, &self.state.x).abs() <= st.latch_tol_m()
             })
             .collect();
         if newly.is_empty() {
@@ -133,7 +134,7 @@ impl Simulator {
             // the side it came from: its gap at the sub-step's start (0 if already at its lock)
             let tol = self.settings.latch_tol_m();
             for &e in &immobile {
-                let g0 = gap(&self.model, e, &self.x_start);
+                let g0 = self.model.lock_gap_m(e, &self.x_start);
                 let side = if g0.abs() > tol { g0.signum() } else { 0.0 };
                 self.state.carry.waiting.push(WaitingLatch {
                     element: e,
@@ -179,7 +180,7 @@ impl Simulator {
             element: e, side, ..
         } in &waiting
         {
-            let g = gap(&self.model, e, &self.state.x);
+            let g = self.model.lock_gap_m(e, &self.state.x);
             if g.abs() <= tol {
                 at_lock.push(e);
             } else if g * side < 0.0 {
@@ -431,7 +432,7 @@ impl Simulator {
             .iter()
             .filter(|tr| due.contains(&tr.element))
         {
-            let g = gap(&self.model, tr.element, &self.state.x);
+            let g = self.model.lock_gap_m(tr.element, &self.state.x);
             let k = tr.stiffness_n_per_m;
             let spring_j = 0.5 * k * g * g;
             self.state.energy.latch_spring_energy_j -= spring_j;
@@ -534,7 +535,7 @@ impl Simulator {
         )?;
         // A basic factorization of the new locked set at the latched state (the
         // next step starts from it): its probe counts the rank for large models.
-        core.factor(model, SolveMode::Basic)?;
+        core.factor(model, SolveMode::Basic, Pose::PLAIN)?;
         core.stats.latches += elements
             .iter()
             .filter(|&&e| model.elements[e].latch_spring().is_none())
@@ -590,14 +591,6 @@ impl Simulator {
         }
         Ok(jumps)
     }
-}
-
-/// Whether a sleeve is held at its lock: latched, or its compliant latch
-/// engaged (its transient lasts) or waiting for the others' to end.
-pub(super) fn held(s: &State, e: usize) -> bool {
-    s.locked[e]
-        || s.transients.iter().any(|t| t.element == e)
-        || s.carry.waiting.iter().any(|w| w.element == e)
 }
 
 /// Whether a transient's current window of one period has ended at `t` (to

@@ -7,7 +7,7 @@
 //! `projection`; elastic members: nothing projected). Also the applied
 //! forces Q and the consistent accelerations of a state.
 
-use super::core::{Core, MEMBER_PIN};
+use super::core::{Core, Pose, Rows, StepRule, MEMBER_PIN};
 use crate::solver::cable;
 use crate::solver::linsolve::SolveMode;
 use crate::solver::model::Model;
@@ -17,11 +17,12 @@ use crate::solver::SolverError;
 
 impl Core {
     /// Applied forces Q at the trial (x, v): cables (inertia from `a_guess`),
-    /// compliant elements and latches, damping, gravity.
-    fn applied_forces(&mut self, model: &Model, cmd: &[f64]) {
+    /// compliant elements and latches, damping (on V* where `pose` takes it
+    /// implicit), gravity.
+    fn applied_forces(&mut self, model: &Model, cmd: &[f64], pose: Pose) {
         self.q.fill(0.0);
         for (ci, c) in model.cables.iter().enumerate() {
-            let direction = if self.lagged_friction {
+            let direction = if pose.lagged_friction {
                 Some(self.friction_sliding[ci].as_slice())
             } else {
                 None
@@ -29,7 +30,7 @@ impl Core {
             if self.motor_tracks(ci) {
                 // (its tension is solved for: `motor_tensions`)
                 let sliding = std::mem::take(&mut self.friction_sliding[ci]);
-                let dir = self.lagged_friction.then_some(sliding.as_slice());
+                let dir = pose.lagged_friction.then_some(sliding.as_slice());
                 self.motor_unit_forces(model, ci, dir);
                 self.friction_sliding[ci] = sliding;
                 continue;
@@ -49,7 +50,7 @@ impl Core {
         self.element_springs
             .add_forces(model, &self.x, &self.v, &mut self.q);
         let g = model.gravity_m_s2;
-        let damp_v = if self.implicit_h.is_some() {
+        let damp_v = if pose.implicit_damping {
             &self.v_star
         } else {
             &self.v
@@ -60,22 +61,24 @@ impl Core {
     }
 
     /// Constrained accelerations at the trial (x, v) into `a` and `lambda`,
-    /// from a new factorization in `mode` (`Some`) or the current one (`None`).
+    /// from a new factorization in `mode` (`Some`) or the current one
+    /// (`None`), posed as `pose` says.
     pub fn accelerations(
         &mut self,
         model: &Model,
         cmd: &[f64],
         refactor: Option<SolveMode>,
+        pose: Pose,
     ) -> Result<(), SolverError> {
         if let Some(mode) = refactor {
-            if self.compliant.is_some() {
+            if pose.rows.elastic_h().is_some() {
                 self.jac.fill(model, &self.x); // (S + D factored by the solve)
             } else {
-                self.factor(model, mode)?;
+                self.factor(model, mode, pose)?;
             }
         }
-        self.applied_forces(model, cmd);
-        if let Some((h, true)) = self.compliant {
+        self.applied_forces(model, cmd, pose);
+        if let Rows::ElasticStep { h, rule } = pose.rows {
             // Index 3: Phi + tau A V + c lambda = 0 at the X, V of A,
             // linearized at the iterate A_g: b A (A - A_g) + Phi + tau A V
             // + c lambda = 0, b = beta h^2 + tau gamma h, so
@@ -83,13 +86,13 @@ impl Core {
             self.jac.residual(model, &self.x, &mut self.row_phi);
             self.jac.mul(&self.v, &mut self.row_rate);
             self.jac.mul(&self.a_guess, &mut self.c);
-            let (tau, beta) = (self.relaxation_s, self.step_relaxation_beta(h));
+            let (tau, beta) = (self.relaxation_s, self.step_relaxation_beta(h, rule));
             for i in 0..self.c.len() {
                 self.c[i] = (self.row_phi[i] + tau * self.row_rate[i]) / beta - self.c[i];
             }
         } else {
             self.jac.adot_xdot(model, &self.x, &self.v, &mut self.c);
-            if let Some((h, false)) = self.compliant {
+            if let Rows::ElasticForces { h } = pose.rows {
                 // members: A A + D lambda = -c with D lambda = -D (Phi + tau A V) / c
                 self.jac.residual(model, &self.x, &mut self.row_phi);
                 self.jac.mul(&self.v, &mut self.row_rate);
@@ -101,9 +104,9 @@ impl Core {
                 }
             }
         }
-        self.solve_accelerations(model)?;
+        self.solve_accelerations(model, pose)?;
         if self.motor.any_tracking() {
-            self.motor_tensions(model)?;
+            self.motor_tensions(model, pose)?;
         }
         if self.a.iter().any(|v| !v.is_finite()) {
             return Err(SolverError::NonFinite("accelerations".into()));
@@ -124,13 +127,13 @@ impl Core {
         st: &SolverSettings,
         carry: &mut Carry,
     ) -> Result<(), SolverError> {
+        let mut pose = Pose::PLAIN;
         if st.elastic_members {
-            self.compliant = Some((model.dt_s, false));
+            pose.rows = Rows::ElasticForces { h: model.dt_s };
             carry.restart_substeps_left = st.restart_substeps;
             carry.blend_start_held = false;
         }
-        let result = self.consistent_fixed_point(model, cmd, st);
-        self.compliant = None;
+        let result = self.consistent_fixed_point(model, cmd, st, pose);
         if st.elastic_members {
             self.state_member_forces(&mut carry.member_force_n);
         }
@@ -142,8 +145,9 @@ impl Core {
         model: &Model,
         cmd: &[f64],
         st: &SolverSettings,
+        pose: Pose,
     ) -> Result<(), SolverError> {
-        self.accelerations(model, cmd, None)?;
+        self.accelerations(model, cmd, None, pose)?;
         if !model.cables.iter().any(|c| c.line_density_kg_per_m > 0.0) {
             return Ok(());
         }
@@ -157,19 +161,19 @@ impl Core {
                 return Ok(());
             }
             self.a_guess.copy_from_slice(&self.a);
-            self.accelerations(model, cmd, None)?;
+            self.accelerations(model, cmd, None, pose)?;
         }
         self.stats.fallbacks.consistent_unconverged += 1;
         Ok(())
     }
 
-    /// One Newmark step of length h from `s` into the trial state, solves in
-    /// `base` mode.
+    /// One Newmark step of length h from `s` under `rule` into the trial
+    /// state, solves in `base` mode.
     pub fn newmark(
         &mut self,
         model: &Model,
         s: &State,
-        h: f64,
+        (h, rule): (f64, StepRule),
         st: &SolverSettings,
         base: SolveMode,
     ) -> Result<(), SolverError> {
@@ -194,11 +198,10 @@ impl Core {
         // (1 - gamma) h A_n, so (M + gamma h C) A_{n+1} = Q - C V* + A^T lambda,
         // contracting however stiff the damping.
         let c_damp = model.damping_n_s_per_m;
-        let gains = self.step_gains(h);
+        let gains = rule.gains(h);
         for (w, m) in self.inv_mass_eff.iter_mut().zip(&model.mass) {
             *w = 1.0 / (m + gains.velocity_s * c_damp);
         }
-        self.implicit_h = Some(h);
         for i in 0..self.v_star.len() {
             self.v_star[i] = s.v[i] + (h - gains.velocity_s) * s.a[i];
         }
@@ -209,16 +212,17 @@ impl Core {
         if motors {
             self.motor.set_targets(s, h);
         }
-        if st.elastic_members {
-            self.compliant = Some((h, true));
-        }
-        let iterated = self.newmark_iterate(model, s, h, st, base);
-        self.compliant = None;
-        self.implicit_h = None;
-        let lagged = self.lagged_friction;
-        self.lagged_friction = false;
-        iterated?;
-        self.newmark_update(s, h);
+        let trial = Pose {
+            rows: if st.elastic_members {
+                Rows::ElasticStep { h, rule }
+            } else {
+                Rows::Rigid
+            },
+            implicit_damping: true,
+            lagged_friction: false,
+        };
+        let lagged = self.newmark_iterate(model, s, (h, rule), st, base, trial)?;
+        self.newmark_update(s, h, rule);
         if st.elastic_members {
             self.elastic_finish(model);
             return Ok(());
@@ -227,18 +231,19 @@ impl Core {
         if motors {
             self.project_motor_positions(model, st, base)?;
         }
-        self.factor(model, base)?;
+        self.factor(model, base, Pose::PLAIN)?;
         self.project_velocities(model, st, base)?;
         if motors {
-            self.project_motor_velocities(model)?;
+            self.project_motor_velocities(model, Pose::PLAIN)?;
         }
         // A_{n+1} and the segment tensions under the friction directions the
         // iteration converged with: with the current ones a pulley slower than
         // its slip speed gets a force the step never applied.
-        self.lagged_friction = lagged;
-        let result = self.accelerations(model, cmd, None);
-        self.lagged_friction = false;
-        result
+        let end = Pose {
+            lagged_friction: lagged,
+            ..Pose::PLAIN
+        };
+        self.accelerations(model, cmd, None, end)
     }
 
     /// The end of an elastic-member step (nothing projected): the violation
@@ -302,10 +307,10 @@ impl Core {
     /// The trial (x, v) from `s` and A_{n+1} = `a_guess`:
     /// X_{n+1} = X_n + h V_n + h^2 ((1/2 - beta) A_n + beta A_{n+1}),
     /// V_{n+1} = V_n + h ((1 - gamma) A_n + gamma A_{n+1}).
-    fn newmark_update(&mut self, s: &State, h: f64) {
-        if self.backward_euler {
+    fn newmark_update(&mut self, s: &State, h: f64, rule: StepRule) {
+        if rule == StepRule::BackwardEuler {
             // (beta = 1/2, gamma = 1: A_n drops out)
-            let g = self.step_gains(h);
+            let g = rule.gains(h);
             for i in 0..self.x.len() {
                 let a1 = self.a_guess[i];
                 self.x[i] = s.x[i] + h * s.v[i] + g.position_s2 * a1;
@@ -325,19 +330,21 @@ impl Core {
     /// is within tolerance (`newmark_rho_safety`). Where the friction blend or
     /// a stiff spring keeps the map from contracting: Newton steps (stage
     /// `newton`). A stall restarts with least-squares solves, then with the
-    /// step start's friction direction (counted fallbacks).
+    /// step start's friction direction (counted fallbacks). The solves are
+    /// posed as `pose` says; returns whether the converged iterate took the
+    /// friction's directions lagged (the step's end takes them too).
     fn newmark_iterate(
         &mut self,
         model: &Model,
         s: &State,
-        h: f64,
+        (h, rule): (f64, StepRule),
         st: &SolverSettings,
         base: SolveMode,
-    ) -> Result<(), SolverError> {
+        mut pose: Pose,
+    ) -> Result<bool, SolverError> {
         let cmd = &s.cable_tension_cmd_n;
         let amax = s.a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-        self.lagged_friction = false;
-        self.newton_secant = false;
+        self.newton.secant = false;
         self.blend_entry = false;
         let mut mode = base;
         let (mut last_change, mut stalls) = (f64::INFINITY, 0);
@@ -345,14 +352,14 @@ impl Core {
         let (mut newton, mut tried_newton) = (false, false);
         // (Newton restarts at the next iterate: the secant retry)
         let mut restart_newton = false;
-        let gains = self.step_gains(h);
+        let gains = rule.gains(h);
         // (whether the friction blend was in play when Newton started: the
         // Newton gain then measures it, not only a stiff spring's)
         let mut newton_for_friction = false;
         for _ in 0..st.newmark_max_iterations {
             self.stats.newmark_iterations += 1;
-            self.newmark_update(s, h);
-            self.accelerations(model, cmd, Some(mode))?;
+            self.newmark_update(s, h, rule);
+            self.accelerations(model, cmd, Some(mode), pose)?;
             let mut change = 0.0f64;
             let mut scale = amax;
             for i in 0..self.a.len() {
@@ -368,7 +375,7 @@ impl Core {
                 change
             };
             // (beta: position per unit A per h^2)
-            let per_a = self.step_gains(1.0).position_s2;
+            let per_a = rule.gains(1.0).position_s2;
             if error <= st.newmark_tol_rel * scale
                 || per_a * error * h * h <= st.newmark_tol_position_m
             {
@@ -385,10 +392,10 @@ impl Core {
                     && self.newton.gain >= 1.0
                     && self.friction_blend_entered(model, st.blend_change_rel, start);
                 self.newton_last = tried_newton;
-                return Ok(());
+                return Ok(pose.lagged_friction);
             }
             if newton {
-                if self.newton_advance(model, h, st)? {
+                if self.newton_advance(model, (h, rule), st, pose)? {
                     continue;
                 }
                 // (the line search failed: once with the friction's secant
@@ -396,8 +403,8 @@ impl Core {
                 self.stats.fallbacks.newmark_newton_failed += 1;
                 newton = false;
                 self.newton_best();
-                if newton_for_friction && !self.newton_secant {
-                    self.newton_secant = true;
+                if newton_for_friction && !self.newton.secant {
+                    self.newton.secant = true;
                     self.stats.fallbacks.newmark_newton_secant += 1;
                     restart_newton = true;
                 }
@@ -409,7 +416,7 @@ impl Core {
             // (`ElementSprings::max_gain`) keeps the map from contracting;
             // from the first iterate if the last step needed it
             let stiff = (rho >= st.newmark_newton_trigger || self.newton_last || restart_newton)
-                && !self.lagged_friction
+                && !pose.lagged_friction
                 && (!tried_newton || restart_newton);
             restart_newton = false;
             let friction = stiff && self.friction_blend_active(model);
@@ -422,7 +429,7 @@ impl Core {
                 newton = true;
                 tried_newton = true;
                 self.stats.newton_switches += 1;
-                self.newton_start(model, h, st)?;
+                self.newton_start(model, (h, rule), st, pose)?;
                 continue;
             }
             self.a_guess.copy_from_slice(&self.a);
@@ -449,8 +456,8 @@ impl Core {
                 self.a_guess.copy_from_slice(&s.a);
                 (last_change, stalls) = (f64::INFINITY, 0);
                 (best_change, no_progress) = (f64::INFINITY, 0);
-            } else if stalled && !self.lagged_friction && !model.cables.is_empty() {
-                self.lagged_friction = true;
+            } else if stalled && !pose.lagged_friction && !model.cables.is_empty() {
+                pose.lagged_friction = true;
                 self.stats.fallbacks.newmark_lagged_friction += 1;
                 self.a_guess.copy_from_slice(&s.a);
                 (last_change, stalls) = (f64::INFINITY, 0);

@@ -12,153 +12,13 @@
 //! The tension stays in [0, `max_tension_n`]: the motor releases beyond it and at every rigid
 //! latch, and engages again at its commanded speed by a velocity jump (`motor_engage`).
 
-use super::core::Core;
-use super::Simulator;
+use super::core::{Core, Pose, Rows, StepRule};
+use super::sim::Simulator;
 use crate::solver::cable;
-use crate::solver::linsolve::solve_small;
 use crate::solver::model::Model;
 use crate::solver::settings::SolverSettings;
-use crate::solver::state::{kinetic_energy_j, MotorHold, State};
-use crate::solver::{MotorConflict, RequestError, SolverError};
-
-/// Buffers of the motors' solves, reused across steps.
-#[derive(Debug, Default)]
-pub(super) struct MotorWork {
-    /// Per cable: the reel-in speed while it tracks in the trial (m/s), else None.
-    pub speed_m_s: Vec<Option<f64>>,
-    /// Per cable: its engagement conflicted with the tracking motors (a singular system depends on
-    /// the configuration): not tried again in this step unless a motor releases or engages.
-    pub conflicted: Vec<bool>,
-    /// Per cable: the length it holds at the trial's end (m), while it tracks.
-    pub target_m: Vec<f64>,
-    /// Per cable: joint forces of a unit tension (or grad L), the responses to them (A, lambda).
-    g: Vec<Vec<f64>>,
-    resp: Vec<Vec<f64>>,
-    resp_lambda: Vec<Vec<f64>>,
-    a0: Vec<f64>,
-    lambda0: Vec<f64>,
-    q_save: Vec<f64>,
-    /// Per cable: its mobility were the structure free, the scale of its diagonal
-    /// (`Core::motor_responses`); and a joint-sized scratch.
-    free: Vec<f64>,
-    scratch: Vec<f64>,
-    c_save: Vec<f64>,
-    /// The k x k system (row-major) and its right side / solution, in the tracking cables' order.
-    mat: Vec<f64>,
-    rhs: Vec<f64>,
-    order: Vec<usize>,
-}
-
-impl MotorWork {
-    pub fn new(model: &Model, rows: usize) -> MotorWork {
-        let (n, nc) = (model.n_coords(), model.cables.len());
-        MotorWork {
-            speed_m_s: vec![None; nc],
-            conflicted: vec![false; nc],
-            target_m: vec![0.0; nc],
-            g: vec![vec![0.0; n]; nc],
-            resp: vec![vec![0.0; n]; nc],
-            resp_lambda: vec![vec![0.0; rows]; nc],
-            a0: vec![0.0; n],
-            lambda0: vec![0.0; rows],
-            q_save: vec![0.0; n],
-            free: vec![0.0; nc],
-            scratch: vec![0.0; n],
-            c_save: vec![0.0; rows],
-            mat: Vec::with_capacity(nc * nc),
-            rhs: Vec::with_capacity(nc),
-            order: Vec::with_capacity(nc),
-        }
-    }
-
-    pub fn set_rows(&mut self, rows: usize) {
-        for b in self.resp_lambda.iter_mut() {
-            b.resize(rows, 0.0);
-        }
-        self.lambda0.resize(rows, 0.0);
-        self.c_save.resize(rows, 0.0);
-    }
-
-    /// Solves the k x k system in `mat`, `rhs` (its solution into `rhs`); an error naming the
-    /// cable where a diagonal is below `motor_pivot_rel` of its free value (the structure cannot
-    /// move along it), or the cables where a pivot is below that of the largest diagonal (two
-    /// motors move it alike).
-    fn solve(&mut self, model: &Model) -> Result<(), SolverError> {
-        // (the diagonal grad L . d is the structure's mobility along the cable)
-        let (k, tiny) = (self.rhs.len(), model.solver.motor_pivot_rel);
-        let diag = |i: usize| self.mat[i * k + i];
-        // (both negative for a tension, whose pull shortens the cable)
-        let immobile = (0..k).find(|&i| !(diag(i) / self.free[self.order[i]] > tiny));
-        let col = match immobile {
-            Some(i) => i,
-            None => match solve_small(&mut self.mat, &mut self.rhs, tiny) {
-                Ok(()) => return Ok(()),
-                Err(col) => col,
-            },
-        };
-        let name = |oi: usize| model.cables[self.order[oi]].name.clone();
-        Err(SolverError::MotorConflict(if immobile.is_some() {
-            MotorConflict::Immobile { cable: name(col) }
-        } else {
-            MotorConflict::SameMotion {
-                cable: name(col),
-                others: (0..col).map(name).collect(),
-            }
-        }))
-    }
-
-    /// The tracking cables, in order, into `order`.
-    fn take_order(&mut self) {
-        self.order.clear();
-        let tracking = self
-            .speed_m_s
-            .iter()
-            .enumerate()
-            .filter(|(_, s)| s.is_some());
-        self.order.extend(tracking.map(|(ci, _)| ci));
-    }
-
-    /// The largest |L_i(x) - target_i| over the tracking motors (m).
-    pub fn length_miss_m(&self, model: &Model, x: &[f64]) -> f64 {
-        (0..model.cables.len())
-            .filter(|&ci| self.speed_m_s[ci].is_some())
-            .map(|ci| (model.cables[ci].length_m(x) - self.target_m[ci]).abs())
-            .fold(0.0, f64::max)
-    }
-
-    pub fn any_tracking(&self) -> bool {
-        self.speed_m_s.iter().any(Option::is_some)
-    }
-
-    /// Takes the tracking motors of the state (their speeds), for solves at the state's time.
-    pub fn take_modes(&mut self, s: &State) {
-        for (w, m) in self.speed_m_s.iter_mut().zip(&s.motors) {
-            *w = match m.hold {
-                MotorHold::Tracking => m.speed_cmd_m_s,
-                _ => None,
-            };
-        }
-    }
-
-    /// Motor `ci` at its commanded speed, with the state's tracking motors (`others`) or alone.
-    fn take_modes_with(&mut self, s: &State, ci: usize, others: bool) {
-        if others {
-            self.take_modes(s);
-        } else {
-            self.speed_m_s.fill(None);
-        }
-        self.speed_m_s[ci] = s.motors[ci].speed_cmd_m_s;
-    }
-
-    /// The lengths the tracking motors hold at the end of a trial of length h: L_ref - s h.
-    pub fn set_targets(&mut self, s: &State, h: f64) {
-        for (ci, m) in s.motors.iter().enumerate() {
-            if let Some(speed) = self.speed_m_s[ci] {
-                self.target_m[ci] = m.length_ref_m - speed * h;
-            }
-        }
-    }
-}
+use crate::solver::state::{kinetic_energy_j, MotorHold};
+use crate::solver::{RequestError, SolverError};
 
 impl Core {
     /// Whether cable `ci` tracks a speed in the current solve.
@@ -189,18 +49,20 @@ impl Core {
     /// forces already solved in `a`, `lambda`: one more solve per motor (its unit forces), then the
     /// k x k system for Lddot = 0, or in elastic members' Newmark iteration for e + tau edot = 0.
     /// `a`, `lambda`, `q` and the cable readings end with the motors' tensions in them.
-    pub fn motor_tensions(&mut self, model: &Model) -> Result<(), SolverError> {
+    pub fn motor_tensions(&mut self, model: &Model, pose: Pose) -> Result<(), SolverError> {
         let mw = &mut self.motor;
         mw.a0.copy_from_slice(&self.a);
         let m = self.jac.nrows;
         mw.lambda0[..m].copy_from_slice(&self.lambda[..m]);
         mw.q_save.copy_from_slice(&self.q);
         mw.c_save[..m].copy_from_slice(&self.c[..m]);
-        self.motor_responses(model, true)?;
+        self.motor_responses(model, true, pose)?;
         // (elastic members' Newmark iteration, nothing projected: X and tau V move by
         // b = beta h^2 + tau gamma h per unit of A)
-        let index3 = match self.compliant {
-            Some((h, true)) => Some((self.step_relaxation_beta(h), self.relaxation_s)),
+        let index3 = match pose.rows {
+            Rows::ElasticStep { h, rule } => {
+                Some((self.step_relaxation_beta(h, rule), self.relaxation_s))
+            }
             _ => None,
         };
         let mw = &mut self.motor;
@@ -250,8 +112,13 @@ impl Core {
     /// motor tension's (`g`), or (`unit_tension` false, plain masses) grad L_k, the projections'
     /// directions d_k. Also the k x k matrix grad L_i . resp_k into `mat`, and into `free` each
     /// cable's mobility were the structure free, grad L . W q (W the solves' inverse masses).
-    fn motor_responses(&mut self, model: &Model, unit_tension: bool) -> Result<(), SolverError> {
-        debug_assert!(unit_tension || self.implicit_h.is_none());
+    fn motor_responses(
+        &mut self,
+        model: &Model,
+        unit_tension: bool,
+        pose: Pose,
+    ) -> Result<(), SolverError> {
+        debug_assert!(unit_tension || !pose.implicit_damping);
         let m = self.jac.nrows;
         self.motor.take_order();
         for oi in 0..self.motor.order.len() {
@@ -263,14 +130,14 @@ impl Core {
                 self.q.fill(0.0);
                 cable.add_length_gradient(&self.x, 1.0, &mut self.q);
             }
-            let w = Self::weights(self.implicit_h, &self.inv_mass_eff, model);
+            let w = Self::weights(pose, &self.inv_mass_eff, model);
             let mw = &mut self.motor;
             for ((s, q), wi) in mw.scratch.iter_mut().zip(&self.q).zip(w) {
                 *s = q * wi;
             }
             mw.free[ci] = cable.length_rate(&self.x, &mw.scratch);
             self.c[..m].fill(0.0);
-            self.solve_accelerations(model)?;
+            self.solve_accelerations(model, pose)?;
             self.motor.resp[ci].copy_from_slice(&self.a);
             self.motor.resp_lambda[ci][..m].copy_from_slice(&self.lambda[..m]);
         }
@@ -287,8 +154,8 @@ impl Core {
 
     /// Whether the tracking motors' system (`speed_m_s`) is solvable at the current
     /// factorization: an error naming the cables where it is not (`MotorWork::solve`).
-    fn motors_solvable(&mut self, model: &Model) -> Result<(), SolverError> {
-        self.motor_responses(model, false)?;
+    fn motors_solvable(&mut self, model: &Model, pose: Pose) -> Result<(), SolverError> {
+        self.motor_responses(model, false, pose)?;
         let mw = &mut self.motor;
         mw.rhs.clear();
         mw.rhs.resize(mw.order.len(), 0.0);
@@ -321,8 +188,8 @@ impl Core {
             if self.motor.length_miss_m(model, &self.x) <= st.projection_tol_m {
                 return Ok(());
             }
-            self.factor(model, mode)?;
-            self.motor_responses(model, false)?;
+            self.factor(model, mode, Pose::PLAIN)?;
+            self.motor_responses(model, false, Pose::PLAIN)?;
             let mw = &mut self.motor;
             mw.rhs.clear();
             for &ci in &mw.order {
@@ -339,8 +206,12 @@ impl Core {
 
     /// Velocities onto Ldot_i = -s_i of the tracking motors, with the current factorization at x:
     /// one correction, exact (the constraint is linear in V and A d_k = 0).
-    pub fn project_motor_velocities(&mut self, model: &Model) -> Result<(), SolverError> {
-        self.motor_responses(model, false)?;
+    pub fn project_motor_velocities(
+        &mut self,
+        model: &Model,
+        pose: Pose,
+    ) -> Result<(), SolverError> {
+        self.motor_responses(model, false, pose)?;
         let mw = &mut self.motor;
         mw.rhs.clear();
         for &ci in &mw.order {
@@ -419,30 +290,32 @@ impl Simulator {
         debug_assert!(s.motors[ci].speed_cmd_m_s.is_some(), "a speed command");
         core.x.copy_from_slice(&s.x);
         core.v.copy_from_slice(&s.v);
-        // (the jump uses the average acceleration's beta, as a latch's; each trial sets its rule)
-        core.backward_euler = false;
+        let mut pose = Pose::PLAIN;
         if self.settings.elastic_members {
-            // (members at their step compliance c / beta(dt); the compliant solves factor S + D
-            // themselves, well posed at the flat state, as in a latch's elastic velocity jump)
+            // (members at their step compliance c / beta(dt) under the average acceleration's
+            // beta, as a latch's jump; the compliant solves factor S + D themselves, well posed
+            // at the flat state, as in a latch's elastic velocity jump)
             core.jac.fill(model, &core.x);
-            core.compliant = Some((model.dt_s, true));
+            pose.rows = Rows::ElasticStep {
+                h: model.dt_s,
+                rule: StepRule::AverageAcceleration,
+            };
         } else {
-            core.factor(model, crate::solver::linsolve::SolveMode::Basic)?;
+            core.factor(model, crate::solver::linsolve::SolveMode::Basic, pose)?;
         }
         // (this motor alone: the others keep their velocities' rates)
         core.motor.take_modes_with(s, ci, false);
-        let moved = core.project_motor_velocities(model);
+        let moved = core.project_motor_velocities(model, pose);
         // (with the motors tracking already: one system for all of them)
         let others =
             (0..s.motors.len()).any(|j| j != ci && s.motors[j].hold == MotorHold::Tracking);
         let solvable = match moved {
             Ok(()) if others => {
                 core.motor.take_modes_with(s, ci, true);
-                core.motors_solvable(model)
+                core.motors_solvable(model, pose)
             }
             _ => Ok(()),
         };
-        core.compliant = None;
         match solvable {
             Ok(()) => {}
             Err(e @ SolverError::MotorConflict(_)) => {

@@ -11,72 +11,12 @@
 //! plain iteration's. Iterates alternating across many blends: one retry with secant slopes from
 //! the best iterate (`newton_secant`).
 
-use super::core::Core;
+use super::core::{Core, Pose, StepRule};
 use crate::solver::cable;
-use crate::solver::linsolve::gmres::{weighted_dot, Gmres};
+use crate::solver::linsolve::gmres::weighted_dot;
 use crate::solver::model::Model;
 use crate::solver::settings::SolverSettings;
 use crate::solver::SolverError;
-
-/// Buffers of the Newton steps (made once; rows-sized ones follow the pattern).
-pub(super) struct NewtonWork {
-    n: usize,
-    /// The accepted iterate, its residual G(A) - A and kinetic norm; direction; step fraction.
-    a_acc: Vec<f64>,
-    r_acc: Vec<f64>,
-    norm_acc: f64,
-    dir: Vec<f64>,
-    alpha: f64,
-    /// Line search: trials since the last accepted iterate, the bracket's ends (alpha, <R, d>) on
-    /// the accepted side and across the sign change, and which end the last trial replaced.
-    trials: usize,
-    lo: (f64, f64),
-    hi: Option<(f64, f64)>,
-    kept_side: i8,
-    r_dir0: f64,
-    /// The largest |G' v| over the GMRES basis vectors (unit kinetic norm) of this Newmark step's
-    /// Newton steps: the friction blend's stiffness h/2 |P M^-1 dQ/dV| seen by the iteration
-    /// (1 and above: it alone makes the plain iteration diverge).
-    pub gain: f64,
-    gmres: Gmres,
-    // operator work: dv, dQ, the constrained response, multipliers, zero c
-    dv: Vec<f64>,
-    dq: Vec<f64>,
-    da: Vec<f64>,
-    lambda: Vec<f64>,
-    zero_c: Vec<f64>,
-}
-
-impl NewtonWork {
-    pub fn new(kmax: usize, n: usize, rows: usize) -> NewtonWork {
-        NewtonWork {
-            n,
-            a_acc: vec![0.0; n],
-            r_acc: vec![0.0; n],
-            norm_acc: f64::INFINITY,
-            dir: vec![0.0; n],
-            alpha: 1.0,
-            trials: 0,
-            lo: (0.0, 0.0),
-            hi: None,
-            kept_side: 0,
-            r_dir0: 0.0,
-            gain: 0.0,
-            gmres: Gmres::new(kmax, n),
-            dv: vec![0.0; n],
-            dq: vec![0.0; n],
-            da: vec![0.0; n],
-            lambda: vec![0.0; rows],
-            zero_c: vec![0.0; rows],
-        }
-    }
-
-    /// Rows-sized buffers for a new Jacobian pattern.
-    pub fn set_rows(&mut self, rows: usize) {
-        self.lambda.resize(rows, 0.0);
-        self.zero_c.resize(rows, 0.0);
-    }
-}
 
 impl Core {
     /// Starts the Newton steps from the current iterate (`a_guess`, its map value in `a`, cable
@@ -84,8 +24,9 @@ impl Core {
     pub(super) fn newton_start(
         &mut self,
         model: &Model,
-        h: f64,
+        step: (f64, StepRule),
         st: &SolverSettings,
+        pose: Pose,
     ) -> Result<(), SolverError> {
         // a fresh line search: an earlier failed search's bracket, step fraction and trial count
         // would refuse this first iterate and fail the Newton steps at once
@@ -96,7 +37,7 @@ impl Core {
         nw.trials = 0;
         nw.hi = None;
         nw.kept_side = 0;
-        self.newton_advance(model, h, st).map(|_| ())
+        self.newton_advance(model, step, st, pose).map(|_| ())
     }
 
     /// After the map value `a` of the Newton iterate `a_guess` is computed: accepts it (its
@@ -110,8 +51,9 @@ impl Core {
     pub(super) fn newton_advance(
         &mut self,
         model: &Model,
-        h: f64,
+        step: (f64, StepRule),
         st: &SolverSettings,
+        pose: Pose,
     ) -> Result<bool, SolverError> {
         let n = self.a.len();
         let (mut norm2, mut r_dir) = (0.0, 0.0);
@@ -134,7 +76,7 @@ impl Core {
                 nw.r_acc[i] = self.a[i] - self.a_guess[i];
             }
             nw.norm_acc = norm;
-            self.newton_direction(model, h, st)?;
+            self.newton_direction(model, step, st, pose)?;
             self.stats.newton_steps += 1;
             let nw = &mut self.newton;
             nw.alpha = 1.0;
@@ -247,11 +189,12 @@ impl Core {
     fn newton_apply(
         &mut self,
         model: &Model,
-        h: f64,
+        (h, rule): (f64, StepRule),
+        pose: Pose,
         x: &[f64],
         w: &mut [f64],
     ) -> Result<(), SolverError> {
-        let gains = self.step_gains(h);
+        let gains = rule.gains(h);
         let nw = &mut self.newton;
         let n = nw.n;
         for i in 0..n {
@@ -259,9 +202,7 @@ impl Core {
         }
         nw.dq.fill(0.0);
         for (ci, c) in model.cables.iter().enumerate() {
-            let start = self
-                .newton_secant
-                .then_some(self.friction_sliding[ci].as_slice());
+            let start = nw.secant.then_some(self.friction_sliding[ci].as_slice());
             cable::add_friction_derivative(c, &self.cables[ci], start, &self.x, &nw.dv, &mut nw.dq);
         }
         self.element_springs
@@ -270,7 +211,7 @@ impl Core {
         if nw.dq.iter().all(|v| *v == 0.0) {
             return Ok(());
         }
-        let report = if self.compliant.is_some() {
+        let report = if pose.rows.elastic_h().is_some() {
             self.solver.compliant_response(
                 &self.jac,
                 &self.inv_mass_eff,
@@ -306,10 +247,11 @@ impl Core {
     fn newton_direction(
         &mut self,
         model: &Model,
-        h: f64,
+        step: (f64, StepRule),
         st: &SolverSettings,
+        pose: Pose,
     ) -> Result<(), SolverError> {
-        debug_assert!(self.implicit_h == Some(h));
+        debug_assert!(pose.implicit_damping);
         // (the buffers leave the core while its operator runs)
         let mut gmres = std::mem::take(&mut self.newton.gmres);
         let (r_acc, mut dir) = (
@@ -318,7 +260,7 @@ impl Core {
         );
         let tol = st.newmark_newton_krylov_tol_rel;
         let solved = gmres.solve(&model.mass, &r_acc, tol, &mut dir, |x, w| {
-            self.newton_apply(model, h, x, w)
+            self.newton_apply(model, step, pose, x, w)
         });
         (self.newton.gmres, self.newton.r_acc, self.newton.dir) = (gmres, r_acc, dir);
         solved

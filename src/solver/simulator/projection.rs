@@ -2,7 +2,7 @@
 //! mass-orthogonal corrections (Bayo and Ledesma), so no constraint drift accumulates, and the
 //! least-work multipliers of a state (docs/solver.md, Integration).
 
-use super::core::Core;
+use super::core::{Core, Pose};
 use crate::solver::linsolve::{SolveMode, SolverKind};
 use crate::solver::model::Model;
 use crate::solver::settings::SolverSettings;
@@ -46,7 +46,7 @@ impl Core {
                 }
             }
             last = self.violation_m;
-            self.factor(model, mode)?;
+            self.factor(model, mode, Pose::PLAIN)?;
             self.subtract_correction(model, false)?;
         }
         if self.violation_m <= st.projection_accept_factor * tol {
@@ -96,7 +96,7 @@ impl Core {
         for (v, d) in self.v.iter_mut().zip(&self.dx) {
             *v += d;
         }
-        self.factor(model, SolveMode::MinNorm)?;
+        self.factor(model, SolveMode::MinNorm, Pose::PLAIN)?;
         self.subtract_correction(model, true)
     }
 
