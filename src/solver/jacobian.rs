@@ -26,6 +26,11 @@ pub struct Jacobian {
     /// clones (0: unnamed, compared block by block). Solvers key their
     /// symbolic analysis on it.
     pub structure_id: u64,
+    /// The values as rows of joint triples (the blocks are stored row after
+    /// row): row i's triples are `row_triples[i]..row_triples[i + 1]`, triple
+    /// t is `values[3t..3t + 3]` over the columns from `triple_cols[t]`.
+    row_triples: Vec<u32>,
+    triple_cols: Vec<u32>,
 }
 
 static NEXT_STRUCTURE_ID: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
@@ -50,12 +55,21 @@ impl Jacobian {
             offset += rows * 3 * el.joints().len();
             row0 += rows;
         }
+        let (mut row_triples, mut triple_cols) = (vec![0u32], Vec::with_capacity(offset / 3));
+        for b in &blocks {
+            for _ in 0..b.rows {
+                triple_cols.extend(b.cols.iter().map(|&c| c as u32));
+                row_triples.push(triple_cols.len() as u32);
+            }
+        }
         Jacobian {
             nrows: row0,
             ncols: model.n_coords(),
             blocks,
             values: vec![0.0; offset],
             structure_id: NEXT_STRUCTURE_ID.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
+            row_triples,
+            triple_cols,
         }
     }
 
@@ -148,31 +162,45 @@ impl Jacobian {
 
     /// out = A v
     pub fn mul(&self, v: &[f64], out: &mut [f64]) {
-        let out = &mut out[..self.nrows];
-        for b in &self.blocks {
-            let w = Self::width(b);
-            let vals = &self.values[b.offset..b.offset + b.rows * w];
-            for (r, row) in vals.chunks_exact(w).enumerate() {
-                let mut sum = 0.0;
-                for (a, &c0) in row.chunks_exact(3).zip(&b.cols) {
-                    let x = &v[c0..c0 + 3];
+        if self.nrows == 0 {
+            return;
+        }
+        let (vals, cols, rows) = (&self.values, &self.triple_cols, &self.row_triples);
+        assert!(out.len() >= self.nrows && v.len() >= self.ncols);
+        assert!(rows.len() == self.nrows + 1 && vals.len() == 3 * cols.len());
+        for (i, o) in out[..self.nrows].iter_mut().enumerate() {
+            let mut sum = 0.0;
+            for t in rows[i] as usize..rows[i + 1] as usize {
+                // SAFETY: t < cols.len() (row_triples ends at it), 3t + 2 <
+                // vals.len() (asserted), c + 2 < ncols <= v.len() (the
+                // columns of a joint's triple)
+                unsafe {
+                    let c = *cols.get_unchecked(t) as usize;
+                    let a = vals.get_unchecked(3 * t..3 * t + 3);
+                    let x = v.get_unchecked(c..c + 3);
                     sum += a[0] * x[0] + a[1] * x[1] + a[2] * x[2];
                 }
-                out[b.row0 + r] = sum;
             }
+            *o = sum;
         }
     }
 
     /// out = A^T y
     pub fn mul_t(&self, y: &[f64], out: &mut [f64]) {
+        let (vals, cols, rows) = (&self.values, &self.triple_cols, &self.row_triples);
+        assert!(out.len() >= self.ncols && y.len() >= self.nrows);
         out[..self.ncols].fill(0.0);
-        for b in &self.blocks {
-            let w = Self::width(b);
-            let vals = &self.values[b.offset..b.offset + b.rows * w];
-            for (r, row) in vals.chunks_exact(w).enumerate() {
-                let yr = y[b.row0 + r];
-                for (a, &c0) in row.chunks_exact(3).zip(&b.cols) {
-                    let o = &mut out[c0..c0 + 3];
+        if self.nrows == 0 {
+            return;
+        }
+        assert!(rows.len() == self.nrows + 1 && vals.len() == 3 * cols.len());
+        for (i, &yr) in y[..self.nrows].iter().enumerate() {
+            for t in rows[i] as usize..rows[i + 1] as usize {
+                // SAFETY: as in `mul`
+                unsafe {
+                    let c = *cols.get_unchecked(t) as usize;
+                    let a = vals.get_unchecked(3 * t..3 * t + 3);
+                    let o = out.get_unchecked_mut(c..c + 3);
                     o[0] += a[0] * yr;
                     o[1] += a[1] * yr;
                     o[2] += a[2] * yr;

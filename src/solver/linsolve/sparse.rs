@@ -68,15 +68,12 @@ use super::static_ldlt::StaticLdlt;
 use super::{ConstraintSolver, FactorReport, Kept, SolveMode, SolveReport};
 use crate::solver::jacobian::Jacobian;
 use crate::solver::{BackendError, SolverError};
-use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
-use faer::linalg::cholesky::ldlt::factor::LdltRegularization;
 use faer::sparse::linalg::cholesky::{
-    factorize_symbolic_cholesky, CholeskySymbolicParams, LdltRef, SymbolicCholesky,
-    SymbolicCholeskyRaw, SymmetricOrdering,
+    factorize_symbolic_cholesky, CholeskySymbolicParams, SymmetricOrdering,
 };
 use faer::sparse::linalg::SupernodalThreshold;
-use faer::sparse::{SparseColMatRef, SymbolicSparseColMatRef};
-use faer::{Conj, MatMut, Par, Side};
+use faer::sparse::SymbolicSparseColMatRef;
+use faer::Side;
 
 /// Regularization relative to the largest diagonal entry of S (minimum-norm solves).
 pub const REG_REL: f64 = 1e-10;
@@ -132,7 +129,8 @@ enum SlotKind {
 #[derive(Default)]
 struct Slot {
     kind: SlotKind,
-    l_vals: Vec<f64>,
+    /// Its LDL^T (on the slot's pattern).
+    ldlt: StaticLdlt,
     delta: f64,
     /// D^-1/2 (1 / sqrt(S_ii), 0 for an empty row) for a Rejecting slot.
     scale: Vec<f64>,
@@ -210,7 +208,7 @@ pub struct SparseSchur {
     full: Pattern,
     reduced: Option<Pattern>,
     /// Scratch for the probe's factorization (len of the full L).
-    probe_l: Vec<f64>,
+    probe_ldlt: StaticLdlt,
     probe_scale: Vec<f64>,
     probe_kept: Vec<bool>,
     /// Gather buffer on the kept rows.
@@ -326,7 +324,7 @@ impl SparseSchur {
         let all: Vec<usize> = (0..m).collect();
         self.full = Pattern::new(jac, &all)?;
         self.reduced = None;
-        self.probe_l = vec![0.0; self.full.len_val];
+        self.probe_ldlt = self.full.ldlt.clone();
         self.probe_scale = vec![0.0; m];
         self.probe_kept = vec![true; m];
         for b in [
@@ -353,19 +351,15 @@ impl SparseSchur {
                 ..Slot::default()
             };
         }
-        self.slots[REGULARIZED_SLOT].l_vals = vec![0.0; self.full.len_val];
+        self.slots[REGULARIZED_SLOT].ldlt = self.full.ldlt.clone();
         for slot in &mut self.slots {
             slot.inv_mass = Vec::with_capacity(n);
             slot.jac_values = Vec::with_capacity(jac.values.len());
         }
         (self.reprobe, self.next_reprobe) = (false, 0);
         self.rank = None;
-        let order: Vec<usize> = match self.full.symbolic.as_ref().and_then(|s| s.perm()) {
-            Some(p) => p.arrays().0.to_vec(),
-            None => (0..m).collect(),
-        };
         self.compliant = CompliantSlot {
-            ldlt: StaticLdlt::new(&self.full.col_ptr, &self.full.row_idx, &order),
+            ldlt: self.full.ldlt.clone(),
             ..CompliantSlot::default()
         };
         Ok(())
@@ -558,9 +552,9 @@ impl SparseSchur {
         self.probes += 1;
         self.full.fill(jac, inv_mass)?;
         self.full.scale_to_unit_diagonal(&mut self.probe_scale);
-        self.full.factor(&mut self.probe_l, REJECTING)?;
+        self.full.factor(&mut self.probe_ldlt, REJECTING)?;
         self.probe_kept.fill(true);
-        for r in self.full.rejected_rows(&self.probe_l) {
+        for r in self.full.rejected_rows(&self.probe_ldlt) {
             self.probe_kept[r] = false;
         }
         let kept_mask = &self.probe_kept;
@@ -584,7 +578,7 @@ impl SparseSchur {
     fn use_kept_rows(&mut self, jac: &Jacobian, kept: &[usize]) -> Result<(), SolverError> {
         let reduced = Pattern::new(jac, kept)?;
         for slot in &mut self.slots[..REGULARIZED_SLOT] {
-            slot.l_vals = vec![0.0; reduced.len_val];
+            slot.ldlt = reduced.ldlt.clone();
             slot.scale = vec![0.0; kept.len()];
             slot.valid = false;
         }
@@ -633,10 +627,10 @@ impl SparseSchur {
                 let pat = self.reduced.as_mut().expect("probed");
                 pat.fill(jac, inv_mass)?;
                 pat.scale_to_unit_diagonal(&mut slot.scale);
-                pat.factor(&mut slot.l_vals, REJECTING)?;
+                pat.factor(&mut slot.ldlt, REJECTING)?;
                 // Rows the probe kept are independent; a rejection here means
                 // the rank dropped since (a singular configuration).
-                let rejected = pat.rejected_rows(&slot.l_vals).count();
+                let rejected = pat.rejected_rows(&slot.ldlt).count();
                 self.rank = Some(pat.rows.len() - rejected);
             }
             SlotKind::Regularized => {
@@ -650,7 +644,7 @@ impl SparseSchur {
                 pat.add_to_diagonal(delta);
                 slot.delta = delta;
                 // Pivots are at least delta in exact arithmetic; guard against roundoff.
-                pat.factor(&mut slot.l_vals, (delta, 0.5 * delta))?;
+                pat.factor(&mut slot.ldlt, (delta, 0.5 * delta))?;
             }
         }
         slot.inv_mass.clear();
@@ -669,14 +663,14 @@ impl SparseSchur {
     /// the others (Rejecting), P = R^-1, or P = R^-1 S R^-1 =
     /// R^-1 (I - delta R^-1) when `projected` (Regularized).
     fn precondition(&mut self, projected: bool) {
-        let slot = &self.slots[self.active];
+        let slot = &mut self.slots[self.active];
         match slot.kind {
             SlotKind::Rejecting => {
-                let pat = self.reduced.as_mut().expect("probed");
+                let pat = self.reduced.as_ref().expect("probed");
                 for ((x, &i), s) in self.xr.iter_mut().zip(&pat.rows).zip(&slot.scale) {
                     *x = self.res[i] * s;
                 }
-                pat.solve(&slot.l_vals, &mut self.xr);
+                slot.ldlt.solve(&mut self.xr);
                 self.dl.fill(0.0);
                 for ((x, &i), s) in self.xr.iter().zip(&pat.rows).zip(&slot.scale) {
                     self.dl[i] = x * s;
@@ -684,12 +678,12 @@ impl SparseSchur {
             }
             SlotKind::Regularized => {
                 self.dl.copy_from_slice(&self.res);
-                self.full.solve(&slot.l_vals, &mut self.dl);
+                slot.ldlt.solve(&mut self.dl);
                 if projected {
                     for (d, r) in self.dl.iter_mut().zip(&self.res) {
                         *d = r - slot.delta * *d;
                     }
-                    self.full.solve(&slot.l_vals, &mut self.dl);
+                    slot.ldlt.solve(&mut self.dl);
                 }
             }
         }
@@ -948,10 +942,13 @@ fn all_finite(x: &[f64]) -> bool {
 fn max_abs_diff(a: &[f64], b: &[f64]) -> (f64, f64) {
     let (mut d, mut m) = ([0.0f64; LANES], [0.0f64; LANES]);
     let n = a.len().min(b.len()) / LANES * LANES;
+    // (compare-and-select, not f64::max, whose NaN rule keeps the loop
+    // from vectorizing: the same maxima for the finite values compared here)
     for (ca, cb) in a[..n].chunks_exact(LANES).zip(b[..n].chunks_exact(LANES)) {
         for k in 0..LANES {
-            d[k] = d[k].max((ca[k] - cb[k]).abs());
-            m[k] = m[k].max(ca[k].abs());
+            let (dk, mk) = ((ca[k] - cb[k]).abs(), ca[k].abs());
+            d[k] = if dk > d[k] { dk } else { d[k] };
+            m[k] = if mk > m[k] { mk } else { m[k] };
         }
     }
     let mut dmax = d.iter().fold(0.0f64, |x, &y| x.max(y));
@@ -994,10 +991,11 @@ struct Pattern {
     s_vals: Vec<f64>,
     diag_pos: Vec<usize>,
     contrib: Vec<Contrib>,
-    signs: Vec<i8>,
-    symbolic: Option<SymbolicCholesky<usize>>,
-    mem: Option<MemBuffer>,
-    len_val: usize,
+    /// The Jacobian values and inverse masses the products reach (lengths).
+    reach: (usize, usize),
+    /// The LDL^T's symbolic analysis in faer's AMD order (numeric values of
+    /// its own: each slot keeps a copy it factors into).
+    ldlt: StaticLdlt,
 }
 
 impl Pattern {
@@ -1084,15 +1082,19 @@ impl Pattern {
         });
         // Entries in storage order: the refill then streams through S.
         contrib.sort_unstable_by_key(|c| (c.s, c.o1, c.o2));
+        pat.reach = contrib.iter().fold((0, 0), |(v, w), c| {
+            let o = c.o1.max(c.o2) as usize + 3;
+            (v.max(o), w.max(c.c0 as usize + 3))
+        });
+        assert!(contrib.iter().all(|c| (c.s as usize) < nnz));
         pat.contrib = contrib;
         pat.s_vals = vec![0.0; nnz];
-        pat.signs = vec![1; mr];
         if mr == 0 {
             return Ok(pat);
         }
         let sym = SymbolicSparseColMatRef::new_checked(mr, mr, &pat.col_ptr, None, &pat.row_idx);
-        // Simplicial: the pivots D are then the heads of L's columns, which is
-        // where rejected rows are found.
+        // (faer's analysis for its fill-reducing AMD order; the numeric
+        // factorizations are `StaticLdlt`'s, on the pattern in that order)
         let symbolic = factorize_symbolic_cholesky(
             sym,
             Side::Upper,
@@ -1107,13 +1109,11 @@ impl Pattern {
                 detail: format!("{e:?}"),
             })
         })?;
-        let req = StackReq::any_of(&[
-            symbolic.factorize_numeric_ldlt_scratch::<f64>(Par::Seq, Default::default()),
-            symbolic.solve_in_place_scratch::<f64>(1, Par::Seq),
-        ]);
-        pat.len_val = symbolic.len_val();
-        pat.mem = Some(MemBuffer::new(req));
-        pat.symbolic = Some(symbolic);
+        let order: Vec<usize> = match symbolic.perm() {
+            Some(p) => p.arrays().0.to_vec(),
+            None => (0..mr).collect(),
+        };
+        pat.ldlt = StaticLdlt::new(&pat.col_ptr, &pat.row_idx, &order);
         Ok(pat)
     }
 
@@ -1121,11 +1121,18 @@ impl Pattern {
     fn fill(&mut self, jac: &Jacobian, inv_mass: &[f64]) -> Result<(), SolverError> {
         let v = &jac.values;
         self.s_vals.fill(0.0);
+        // (every product's offsets and columns are below `reach`, its entry
+        // below s_vals.len(): `Pattern::new`)
+        assert!(v.len() >= self.reach.0 && inv_mass.len() >= self.reach.1);
         for c in &self.contrib {
             let (o1, o2, c0) = (c.o1 as usize, c.o2 as usize, c.c0 as usize);
-            self.s_vals[c.s as usize] += v[o1] * v[o2] * inv_mass[c0]
-                + v[o1 + 1] * v[o2 + 1] * inv_mass[c0 + 1]
-                + v[o1 + 2] * v[o2 + 2] * inv_mass[c0 + 2];
+            // SAFETY: in range (asserted above)
+            unsafe {
+                let (a, b) = (v.get_unchecked(o1..o1 + 3), v.get_unchecked(o2..o2 + 3));
+                let w = inv_mass.get_unchecked(c0..c0 + 3);
+                *self.s_vals.get_unchecked_mut(c.s as usize) +=
+                    a[0] * b[0] * w[0] + a[1] * b[1] * w[1] + a[2] * b[2] * w[2];
+            }
         }
         if self.s_vals.iter().any(|x| !x.is_finite()) {
             return Err(SolverError::NonFiniteJacobian);
@@ -1166,61 +1173,15 @@ impl Pattern {
         }
     }
 
-    /// Numeric LDL^T of the current values into `l_vals`; a pivot below
-    /// epsilon becomes delta (`reg` = (delta, epsilon)).
-    fn factor(&mut self, l_vals: &mut [f64], reg: (f64, f64)) -> Result<(), SolverError> {
-        let (Some(sym), Some(mem)) = (self.symbolic.as_ref(), self.mem.as_mut()) else {
-            return Ok(()); // no rows
-        };
-        let m = self.rows.len();
-        let a = SparseColMatRef::new(
-            SymbolicSparseColMatRef::new_checked(m, m, &self.col_ptr, None, &self.row_idx),
-            &self.s_vals,
-        );
-        let reg = LdltRegularization {
-            dynamic_regularization_signs: Some(&self.signs),
-            dynamic_regularization_delta: reg.0,
-            dynamic_regularization_epsilon: reg.1,
-        };
-        sym.factorize_numeric_ldlt(
-            l_vals,
-            a,
-            Side::Upper,
-            reg,
-            Par::Seq,
-            MemStack::new(mem),
-            Default::default(),
-        )
-        .map_err(|e| SolverError::NonFinite(format!("sparse LDLT of S ({e:?})")))?;
-        Ok(())
+    /// Numeric LDL^T of the current values into `into` (a copy of `ldlt`);
+    /// a pivot at or below epsilon becomes delta (`reg` = (delta, epsilon)).
+    fn factor(&self, into: &mut StaticLdlt, reg: (f64, f64)) -> Result<(), SolverError> {
+        into.factor(&self.s_vals, reg.1, reg.0)
     }
 
     /// Constraint rows whose pivot a rejecting factorization replaced.
-    fn rejected_rows<'a>(&'a self, l_vals: &'a [f64]) -> impl Iterator<Item = usize> + 'a {
-        let sym = self.symbolic.as_ref();
-        let heads: &[usize] = match sym.map(|s| s.raw()) {
-            Some(SymbolicCholeskyRaw::Simplicial(simp)) => &simp.col_ptr()[..self.rows.len()],
-            _ => &[],
-        };
-        let perm = sym.and_then(|s| s.perm()).map(|p| p.arrays().0);
-        heads.iter().enumerate().filter_map(move |(k, &p)| {
-            // column k of L is row fwd[k] of S
-            (l_vals[p] >= 0.5 * REJECT_DELTA).then(|| self.rows[perm.map_or(k, |f| f[k])])
-        })
-    }
-
-    /// x <- (L D L^T)^-1 x.
-    fn solve(&mut self, l_vals: &[f64], x: &mut [f64]) {
-        let (Some(sym), Some(mem)) = (self.symbolic.as_ref(), self.mem.as_mut()) else {
-            return;
-        };
-        let m = x.len();
-        LdltRef::new(sym, l_vals).solve_in_place_with_conj(
-            Conj::No,
-            MatMut::from_column_major_slice_mut(x, m, 1),
-            Par::Seq,
-            MemStack::new(mem),
-        );
+    fn rejected_rows<'a>(&'a self, ldlt: &'a StaticLdlt) -> impl Iterator<Item = usize> + 'a {
+        ldlt.floored(0.5 * REJECT_DELTA).map(|t| self.rows[t])
     }
 }
 

@@ -14,7 +14,7 @@
 use crate::solver::SolverError;
 
 /// The factorization and the maps that make it (all sized once).
-#[derive(Debug, Default)]
+#[derive(Clone, Debug, Default)]
 pub struct StaticLdlt {
     // P A P^T, upper triangle by columns (rows ascending), and where each
     // entry of the caller's upper-triangular storage lands in it.
@@ -183,6 +183,12 @@ impl StaticLdlt {
             self.d[k] = if dk > min_pivot { dk } else { floor };
         }
         Ok(())
+    }
+
+    /// The caller's indices whose pivot the last factorization replaced by
+    /// a floor at or above `floor_from`.
+    pub fn floored(&self, floor_from: f64) -> impl Iterator<Item = usize> + '_ {
+        (self.d.iter().zip(&self.perm)).filter_map(move |(&d, &i)| (d >= floor_from).then_some(i))
     }
 
     /// b <- A^-1 b with the last factorization.
