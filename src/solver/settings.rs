@@ -58,6 +58,15 @@ pub struct SolverSettings {
     pub rigid_row_compliance_rel: f64,
     /// Fixed-point iterations of one Newmark step before it counts as not converged.
     pub newmark_max_iterations: usize,
+    /// Elastic members: a plain Newmark iterate corrects the multipliers
+    /// once from the last iterate's with the factorization of S + D made at
+    /// the trial's first iterate (modified Newton, as Exudyn's), instead of
+    /// solving S + D to roundoff by conjugate gradients (false). The
+    /// iteration converges to the same tolerance either way.
+    pub newmark_modified_newton: bool,
+    /// Modified Newton: an iterate that contracts slower than this (ratio of
+    /// successive changes) makes the factorization afresh for the next.
+    pub newmark_refresh_rho: f64,
     /// The iteration has converged when the estimated error of the
     /// accelerations is at most this, relative to the largest acceleration ...
     pub newmark_tol_rel: f64,
@@ -262,6 +271,8 @@ impl Default for SolverSettings {
             member_relaxation_s: 0.1,
             rigid_row_compliance_rel: 1e-6,
             newmark_max_iterations: 60,
+            newmark_modified_newton: true,
+            newmark_refresh_rho: 0.2,
             newmark_tol_rel: 1e-12,
             newmark_tol_position_m: 1e-14,
             newmark_rho_safety: 20.0,
@@ -331,6 +342,7 @@ impl SolverSettings {
             ("newmark_tol_position_m", self.newmark_tol_position_m),
             ("newmark_rho_safety", self.newmark_rho_safety),
             ("newmark_rho_max", self.newmark_rho_max),
+            ("newmark_refresh_rho", self.newmark_refresh_rho),
             ("newmark_stall_ratio", self.newmark_stall_ratio),
             ("newmark_newton_trigger", self.newmark_newton_trigger),
             (

@@ -24,6 +24,9 @@ pub struct SolverStats {
     /// iteration stopped contracting (the friction blend, stiff springs):
     /// the method's own route, not a fallback (its failures are).
     pub newton_switches: u64,
+    /// Modified Newton iterations (elastic members) that contracted slower
+    /// than `newmark_refresh_rho`: their kept factorization made afresh.
+    pub newmark_refreshes: u64,
     /// Newton steps (directions) of Newmark iterations switched to Newton,
     /// the GMRES iterations computing them (one constrained solve each), and
     /// the halvings of their line search.

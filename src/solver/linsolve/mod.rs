@@ -160,6 +160,28 @@ pub trait ConstraintSolver: Send {
     ) -> Result<SolveReport, SolverError> {
         self.compliant_accelerations(jac, inv_mass, d, q, c, a, lambda)
     }
+    /// One correction of the system of `compliant_accelerations` from the
+    /// multipliers in `lambda` (a warm start, overwritten by the corrected
+    /// ones): lambda += P (rhs - (S + D) lambda) with P the kept
+    /// factorization of S + D, made afresh where none serves (another D or
+    /// other masses) or `refresh` asks, and a = M^-1 (Q + A^T lambda). The
+    /// step of a modified Newton iteration (Exudyn's): the iteration around
+    /// it converges to the exact solution whatever the factorization's age,
+    /// at a rate its age sets. Backends without a kept factorization solve
+    /// exactly.
+    #[allow(clippy::too_many_arguments)]
+    fn compliant_correction(
+        &mut self,
+        jac: &Jacobian,
+        inv_mass: &[f64],
+        d: &[f64],
+        (q, c): (&[f64], &[f64]),
+        a: &mut [f64],
+        lambda: &mut [f64],
+        _refresh: bool,
+    ) -> Result<SolveReport, SolverError> {
+        self.compliant_accelerations(jac, inv_mass, d, q, c, a, lambda)
+    }
     /// dx = M^-1 A^T mu with mu = S^+ r (in the mode of the factorization).
     fn correction(
         &mut self,

@@ -694,7 +694,7 @@ impl SparseSchur {
     /// as the preconditioner: the preconditioned spectrum s / (s + delta) is 1 up
     /// to roundoff except for the few ill-conditioned directions, which CG
     /// resolves in a few more steps. Leaves lambda in `self.lam`,
-    /// g = M^-1 A^T lambda in `self.g`, the true final residual rhs - A g in
+    /// g = M^-1 A^T lambda in `self.g`, the final residual rhs - A g in
     /// `self.res` (rhs kept in `rhs2`), and returns max |residual| / max |rhs|
     /// and whether the iteration stopped short of its limit `MAX_REFINE`.
     ///
@@ -775,10 +775,15 @@ impl SparseSchur {
             }
         }
         self.last_iterations = it;
-        // true residual rhs - A g  (= rhs - S lambda)
-        jac.mul(&self.g, &mut self.res);
-        for (r, b) in self.res.iter_mut().zip(&self.rhs2) {
-            *r = b - *r;
+        // The residual rhs - A g (= rhs - S lambda): CG's own, updated with
+        // every step (its drift from the true one is roundoff over the few
+        // steps a basic solve takes), or, in minimum-norm solves, whose
+        // right-hand sides may be inconsistent, the true one.
+        if projected {
+            jac.mul(&self.g, &mut self.res);
+            for (r, b) in self.res.iter_mut().zip(&self.rhs2) {
+                *r = b - *r;
+            }
         }
         (
             self.res.iter().fold(0.0f64, |a, v| a.max(v.abs())) / rmax,
@@ -1315,6 +1320,55 @@ impl ConstraintSolver for SparseSchur {
         self.constrained_part(a, lambda);
         report.iterations = iterations;
         report.converged = converged;
+        Ok(report)
+    }
+
+    fn compliant_correction(
+        &mut self,
+        jac: &Jacobian,
+        inv_mass: &[f64],
+        d: &[f64],
+        (q, c): (&[f64], &[f64]),
+        a: &mut [f64],
+        lambda: &mut [f64],
+        refresh: bool,
+    ) -> Result<SolveReport, SolverError> {
+        // a0 = M^-1 Q, r = -c - A a0 - (S + D) lambda0; lambda = lambda0 + P r
+        self.ensure_structure(jac)?;
+        if !self.unconstrained_part(jac, inv_mass, q, c, a) {
+            return Ok(SolveReport::DIRECT);
+        }
+        let cs = &self.compliant;
+        let mut report = SolveReport::default();
+        if refresh || !(cs.valid && cs.d == d && cs.inv_mass == inv_mass) {
+            self.refactor_compliant(jac, inv_mass, d)?;
+            report.factorizations = 1;
+        } else {
+            self.reused_factorizations += 1;
+            report.reused_factorization = true;
+        }
+        let m = jac.nrows;
+        jac.mul_t(&lambda[..m], &mut self.dg);
+        for (h, im) in self.dg.iter_mut().zip(inv_mass) {
+            *h *= im;
+        }
+        jac.mul(&self.dg, &mut self.q);
+        for i in 0..m {
+            self.res[i] -= self.q[i] + d[i] * lambda[i];
+        }
+        self.dl.copy_from_slice(&self.res);
+        self.compliant.ldlt.solve(&mut self.dl);
+        for i in 0..m {
+            self.lam[i] = lambda[i] + self.dl[i];
+        }
+        jac.mul_t(&self.lam, &mut self.g);
+        for (g, im) in self.g.iter_mut().zip(inv_mass) {
+            *g *= im;
+        }
+        self.solves += 1;
+        self.constrained_part(a, lambda);
+        report.iterations = 1;
+        report.converged = true;
         Ok(report)
     }
 

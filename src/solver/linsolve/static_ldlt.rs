@@ -150,37 +150,50 @@ impl StaticLdlt {
     /// (roundoff on a matrix positive definite by construction). A
     /// non-finite pivot is an error.
     pub fn factor(&mut self, vals: &[f64], min_pivot: f64, floor: f64) -> Result<(), SolverError> {
+        assert_eq!(vals.len(), self.src_pos.len());
         for (&pos, &v) in self.src_pos.iter().zip(vals) {
             self.ax[pos] = v;
         }
         let n = self.d.len();
         self.done.fill(0);
+        let (ap, ai, ax) = (&self.ap, &self.ai, &self.ax);
+        let (rp, rj, lp, li) = (&self.rp, &self.rj, &self.lp, &self.li);
+        let (y, lx, d, done) = (&mut self.y, &mut self.lx, &mut self.d, &mut self.done);
         for k in 0..n {
-            for p in self.ap[k]..self.ap[k + 1] {
-                self.y[self.ai[p]] += self.ax[p];
-            }
-            let mut dk = self.y[k];
-            self.y[k] = 0.0;
-            for &j in &self.rj[self.rp[k]..self.rp[k + 1]] {
-                let yj = self.y[j];
-                self.y[j] = 0.0;
-                let (p0, p1) = (self.lp[j], self.lp[j] + self.done[j]);
-                for (&i, &l) in self.li[p0..p1].iter().zip(&self.lx[p0..p1]) {
-                    self.y[i] -= l * yj;
+            // SAFETY: the symbolic analysis (`new`) made every index in ap,
+            // ai, rp, rj, lp and li in range: ai and li hold rows < n, rj
+            // columns < k, column j of L has lp[j + 1] - lp[j] entries of
+            // which `done[j]` are made (< the count: row k is one of them)
+            unsafe {
+                for p in *ap.get_unchecked(k)..*ap.get_unchecked(k + 1) {
+                    *y.get_unchecked_mut(*ai.get_unchecked(p)) += *ax.get_unchecked(p);
                 }
-                let l_kj = yj / self.d[j];
-                dk -= l_kj * yj;
-                self.lx[p1] = l_kj;
-                self.done[j] += 1;
+                let mut dk = *y.get_unchecked(k);
+                *y.get_unchecked_mut(k) = 0.0;
+                for &j in rj.get_unchecked(*rp.get_unchecked(k)..*rp.get_unchecked(k + 1)) {
+                    let yj = *y.get_unchecked(j);
+                    *y.get_unchecked_mut(j) = 0.0;
+                    let (p0, p1) = (
+                        *lp.get_unchecked(j),
+                        *lp.get_unchecked(j) + *done.get_unchecked(j),
+                    );
+                    for p in p0..p1 {
+                        *y.get_unchecked_mut(*li.get_unchecked(p)) -= *lx.get_unchecked(p) * yj;
+                    }
+                    let l_kj = yj / *d.get_unchecked(j);
+                    dk -= l_kj * yj;
+                    *lx.get_unchecked_mut(p1) = l_kj;
+                    *done.get_unchecked_mut(j) += 1;
+                }
+                if !dk.is_finite() {
+                    y.fill(0.0);
+                    return Err(SolverError::NonFinite(format!(
+                        "LDL^T of the compliant system: pivot {dk} at row {}",
+                        self.perm[k]
+                    )));
+                }
+                *d.get_unchecked_mut(k) = if dk > min_pivot { dk } else { floor };
             }
-            if !dk.is_finite() {
-                self.y.fill(0.0);
-                return Err(SolverError::NonFinite(format!(
-                    "LDL^T of the compliant system: pivot {dk} at row {}",
-                    self.perm[k]
-                )));
-            }
-            self.d[k] = if dk > min_pivot { dk } else { floor };
         }
         Ok(())
     }
@@ -194,35 +207,44 @@ impl StaticLdlt {
     /// b <- A^-1 b with the last factorization.
     pub fn solve(&mut self, b: &mut [f64]) {
         let n = self.d.len();
-        let x = &mut self.x;
-        for (xk, &i) in x.iter_mut().zip(&self.perm) {
-            *xk = b[i];
-        }
-        // L y = P b (unit lower), then D, then L^T
-        for j in 0..n {
-            let xj = x[j];
-            if xj == 0.0 {
-                continue;
+        assert_eq!(b.len(), n);
+        let (x, perm, lp, li, lx, d) = (
+            &mut self.x,
+            &self.perm,
+            &self.lp,
+            &self.li,
+            &self.lx,
+            &self.d,
+        );
+        // SAFETY: perm is a permutation of 0..n, li holds rows < n, and lp
+        // column bounds within li and lx (`new`)
+        unsafe {
+            for k in 0..n {
+                *x.get_unchecked_mut(k) = *b.get_unchecked(*perm.get_unchecked(k));
             }
-            let (p0, p1) = (self.lp[j], self.lp[j + 1]);
-            for (&i, &l) in self.li[p0..p1].iter().zip(&self.lx[p0..p1]) {
-                x[i] -= l * xj;
+            // L y = P b (unit lower), then D, then L^T
+            for j in 0..n {
+                let xj = *x.get_unchecked(j);
+                if xj == 0.0 {
+                    continue;
+                }
+                for p in *lp.get_unchecked(j)..*lp.get_unchecked(j + 1) {
+                    *x.get_unchecked_mut(*li.get_unchecked(p)) -= *lx.get_unchecked(p) * xj;
+                }
             }
-        }
-        for (xj, dj) in x.iter_mut().zip(&self.d) {
-            *xj /= dj;
-        }
-        for j in (0..n).rev() {
-            let (p0, p1) = (self.lp[j], self.lp[j + 1]);
-            let s: f64 = self.li[p0..p1]
-                .iter()
-                .zip(&self.lx[p0..p1])
-                .map(|(&i, &l)| l * x[i])
-                .sum();
-            x[j] -= s;
-        }
-        for (xk, &i) in x.iter().zip(&self.perm) {
-            b[i] = *xk;
+            for j in 0..n {
+                *x.get_unchecked_mut(j) /= *d.get_unchecked(j);
+            }
+            for j in (0..n).rev() {
+                let mut s = 0.0;
+                for p in *lp.get_unchecked(j)..*lp.get_unchecked(j + 1) {
+                    s += *lx.get_unchecked(p) * *x.get_unchecked(*li.get_unchecked(p));
+                }
+                *x.get_unchecked_mut(j) -= s;
+            }
+            for k in 0..n {
+                *b.get_unchecked_mut(*perm.get_unchecked(k)) = *x.get_unchecked(k);
+            }
         }
     }
 }

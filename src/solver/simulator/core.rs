@@ -270,15 +270,27 @@ impl Core {
                     }
                 }
             }
-            self.solver.compliant_accelerations(
-                &self.jac,
-                w,
-                &self.row_d,
-                &self.q,
-                &self.c,
-                &mut self.a,
-                &mut self.lambda,
-            )?
+            match pose.solve {
+                Solve::Exact => self.solver.compliant_accelerations(
+                    &self.jac,
+                    w,
+                    &self.row_d,
+                    &self.q,
+                    &self.c,
+                    &mut self.a,
+                    &mut self.lambda,
+                )?,
+                // (from the multipliers in `lambda`: the last iterate's)
+                Solve::Correction { refresh } => self.solver.compliant_correction(
+                    &self.jac,
+                    w,
+                    &self.row_d,
+                    (&self.q, &self.c),
+                    &mut self.a,
+                    &mut self.lambda,
+                    refresh,
+                )?,
+            }
         } else {
             self.solver.accelerations(
                 &self.jac,
@@ -492,6 +504,20 @@ pub struct Pose {
     /// (`Core::friction_sliding`: the stalled iteration's fallback), not the
     /// iterate's.
     pub lagged_friction: bool,
+    /// Elastic rows: solved exactly, or corrected once from the last iterate
+    /// (a modified Newton step).
+    pub solve: Solve,
+}
+
+/// How an elastic system is solved (`Pose::solve`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Solve {
+    /// To roundoff (conjugate gradients on the kept factorization).
+    Exact,
+    /// One correction from the multipliers in `Core::lambda` with the kept
+    /// factorization, made afresh where `refresh`
+    /// (`ConstraintSolver::compliant_correction`).
+    Correction { refresh: bool },
 }
 
 impl Pose {
@@ -500,5 +526,6 @@ impl Pose {
         rows: Rows::Rigid,
         implicit_damping: false,
         lagged_friction: false,
+        solve: Solve::Exact,
     };
 }

@@ -7,7 +7,7 @@
 //! `projection`; elastic members: nothing projected). Also the applied
 //! forces Q and the consistent accelerations of a state.
 
-use super::core::{Core, Pose, Rows, StepRule, MEMBER_PIN};
+use super::core::{Core, Pose, Rows, Solve, StepRule, MEMBER_PIN};
 use crate::solver::cable;
 use crate::solver::linsolve::SolveMode;
 use crate::solver::model::Model;
@@ -220,6 +220,7 @@ impl Core {
             },
             implicit_damping: true,
             lagged_friction: false,
+            solve: Solve::Exact,
         };
         let lagged = self.newmark_iterate(model, s, (h, rule), st, base, trial)?;
         self.newmark_update(s, h, rule);
@@ -346,6 +347,22 @@ impl Core {
         let amax = s.a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         self.newton.secant = false;
         self.blend_entry = false;
+        // Modified Newton (elastic members, no tracking motor): each plain
+        // iterate corrects the multipliers once from the last iterate's (the
+        // state's at the first) with the factorization of S + D made at the
+        // trial's first iterate, made again where the iteration contracts
+        // slower than `newmark_refresh_rho` (docs/solver.md, Integration).
+        // (Kept across trials it does not serve: the states of self-stress
+        // make S + D nearly singular, D / S ~ 1e-5, and a factorization one
+        // step old makes the bundled ring's first iterate diverge.)
+        let modified = st.newmark_modified_newton
+            && matches!(pose.rows, Rows::ElasticStep { .. })
+            && !self.motor.any_tracking();
+        if modified {
+            self.lambda.copy_from_slice(&s.lambda);
+        }
+        // (the first iterate of a trial makes its factorization at the trial's start)
+        let (mut refresh, mut refreshed) = (modified, false);
         let mut mode = base;
         let (mut last_change, mut stalls) = (f64::INFINITY, 0);
         let (mut best_change, mut no_progress) = (f64::INFINITY, 0);
@@ -359,6 +376,12 @@ impl Core {
         for _ in 0..st.newmark_max_iterations {
             self.stats.newmark_iterations += 1;
             self.newmark_update(s, h, rule);
+            pose.solve = if modified && !newton {
+                refreshed = std::mem::take(&mut refresh);
+                Solve::Correction { refresh: refreshed }
+            } else {
+                Solve::Exact
+            };
             self.accelerations(model, cmd, Some(mode), pose)?;
             let mut change = 0.0f64;
             let mut scale = amax;
@@ -412,6 +435,17 @@ impl Core {
                 (best_change, no_progress) = (f64::INFINITY, 0);
                 continue;
             }
+            // A modified Newton iterate that contracts slowly: its
+            // factorization made afresh for the next (what is left of the
+            // rate is then the map's own)
+            if modified && !refreshed && rho > st.newmark_refresh_rho && rho.is_finite() {
+                self.stats.newmark_refreshes += 1;
+                refresh = true;
+                self.a_guess.copy_from_slice(&self.a);
+                last_change = change;
+                best_change = best_change.min(change);
+                continue;
+            }
             // Newton where the friction blend or a stiff compliant element
             // (`ElementSprings::max_gain`) keeps the map from contracting;
             // from the first iterate if the last step needed it
@@ -429,6 +463,11 @@ impl Core {
                 newton = true;
                 tried_newton = true;
                 self.stats.newton_switches += 1;
+                // (Newton starts from the map's exact value at the iterate)
+                if let Solve::Correction { .. } = pose.solve {
+                    pose.solve = Solve::Exact;
+                    self.accelerations(model, cmd, None, pose)?;
+                }
                 self.newton_start(model, (h, rule), st, pose)?;
                 continue;
             }
