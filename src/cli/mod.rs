@@ -16,6 +16,7 @@ pub(crate) mod output;
 mod plot;
 mod simulate;
 mod sweep;
+pub use sweep::generator as sweep_generator;
 mod sweep_plot;
 
 /// Writes one `warning:` line on stderr; a failed write is ignored (never a panic).
@@ -410,8 +411,9 @@ pub fn write_json<T: Serialize>(path: &Path, value: &T) -> Result<(), Failure> {
     output::write_atomic(path, text.as_bytes()).map_err(Failure::run)
 }
 
+/// What `analyze` finds (`analyze --json`; the Python package's `Model.analyze`).
 #[derive(Serialize)]
-struct AnalyzeJson {
+pub struct AnalyzeJson {
     model: String,
     coordinates: usize,
     rows: usize,
@@ -465,25 +467,14 @@ fn analyze(a: AnalyzeArgs) -> Result<(), Failure> {
     if let Some(j) = &a.json {
         output::check_outputs(&[a.model.as_path()], &[("--json", j.as_path())])?;
     }
-    let m = &loaded.model;
-    let (free, all) = mobility::lock_sets(m);
-    let (geometry, xl) = match &m.reference {
-        Some(r) => ("reference", r.as_slice()),
-        None => ("initial", m.x0.as_slice()),
-    };
-    let err_in = |f: Failure| Failure::input(format!("{}: {}", a.model.display(), f.message));
-    finite_jacobian(m, &m.x0, &free, "initial").map_err(err_in)?;
-    finite_jacobian(m, xl, &all, geometry).map_err(err_in)?;
-    let (before, after) = mobility::before_and_after_locks(m);
-    // The initial state as a run starts from it (accelerations under the drive).
-    let sim = Simulator::new(loaded.model, Options::default())
-        .map_err(|e| Failure::input(format!("{}: {e}", a.model.display())))?;
-    let m = sim.model();
-    let cannot_deploy = crate::solver::checks::cannot_deploy(m, sim.state());
+    let n_joints = loaded.model.n_joints();
+    let report = analysis(loaded, &a.model.display().to_string())?;
+    let (before, after, geometry) = (&report.initial, &report.locked, report.locked_geometry);
+    let cannot_deploy = &report.cannot_deploy;
     say!(
         "model {} ({} joints, {} coordinates)",
-        m.name,
-        m.n_joints(),
+        report.model,
+        n_joints,
         before.coordinates
     );
     say!(
@@ -536,27 +527,45 @@ fn analyze(a: AnalyzeArgs) -> Result<(), Failure> {
         );
     }
     if let Some(j) = &a.json {
-        write_json(
-            j,
-            &AnalyzeJson {
-                model: m.name.clone(),
-                coordinates: before.coordinates,
-                rows: before.rows,
-                rank: before.rank,
-                mechanisms: before.mechanisms,
-                self_stress: before.self_stress,
-                rows_locked: after.rows,
-                rank_locked: after.rank,
-                mechanisms_locked: after.mechanisms,
-                self_stress_locked: after.self_stress,
-                locked_geometry: geometry,
-                cannot_deploy: cannot_deploy.clone(),
-                initial: before.clone(),
-                locked: after.clone(),
-            },
-        )?;
+        write_json(j, &report)?;
     }
     Ok(())
+}
+
+/// `analyze` of a loaded model (`file` names it in errors): the mobility
+/// before and after all locks, and why it cannot deploy, if it cannot.
+pub fn analysis(loaded: model::LoadedModel, file: &str) -> Result<AnalyzeJson, Failure> {
+    let m = &loaded.model;
+    let (free, all) = mobility::lock_sets(m);
+    let (geometry, xl) = match &m.reference {
+        Some(r) => ("reference", r.as_slice()),
+        None => ("initial", m.x0.as_slice()),
+    };
+    let err_in = |f: Failure| Failure::input(format!("{file}: {}", f.message));
+    finite_jacobian(m, &m.x0, &free, "initial").map_err(err_in)?;
+    finite_jacobian(m, xl, &all, geometry).map_err(err_in)?;
+    let (before, after) = mobility::before_and_after_locks(m);
+    // The initial state as a run starts from it (accelerations under the drive).
+    let sim = Simulator::new(loaded.model, Options::default())
+        .map_err(|e| Failure::input(format!("{file}: {e}")))?;
+    let m = sim.model();
+    let cannot_deploy = crate::solver::checks::cannot_deploy(m, sim.state());
+    Ok(AnalyzeJson {
+        model: m.name.clone(),
+        coordinates: before.coordinates,
+        rows: before.rows,
+        rank: before.rank,
+        mechanisms: before.mechanisms,
+        self_stress: before.self_stress,
+        rows_locked: after.rows,
+        rank_locked: after.rank,
+        mechanisms_locked: after.mechanisms,
+        self_stress_locked: after.self_stress,
+        locked_geometry: geometry,
+        cannot_deploy,
+        initial: before,
+        locked: after,
+    })
 }
 
 /// `generate` alone, as a sweep's base generator calls it (`sweep::generator`).
@@ -578,6 +587,26 @@ impl GenerateOnly {
                     .replace("\n\nFor more information, try '--help'.", "")
             })
     }
+}
+
+/// The model `generate KIND --ARG=VALUE ...` makes: `args` are its long
+/// options without `--`, `_` for `-` (`tension_n`, `start_deg`), a value of
+/// None a flag (`bay_by_bay`), as a sweep's `[base.args]` and the Python
+/// package's `truss_deploy.generate` give them; the same defaults and checks.
+pub fn generate_from_args(
+    kind: &str,
+    args: &[(String, Option<String>)],
+) -> Result<model::ModelDoc, String> {
+    let mut argv: Vec<String> = vec!["generate".into(), kind.into(), "-o".into(), "-".into()];
+    for (k, v) in args {
+        let flag = format!("--{}", k.replace('_', "-"));
+        argv.push(match v {
+            Some(v) => format!("{flag}={v}"),
+            None => flag,
+        });
+    }
+    let a = GenerateOnly::try_parse_from_args(&argv)?;
+    generate_doc(&a).map_err(|f| f.message)
 }
 
 fn generate_cmd(a: GenerateArgs) -> Result<(), Failure> {

@@ -57,20 +57,10 @@ fn from(f: SweepFailure) -> Failure {
 }
 
 /// The generator of a sweep's base: `generate KIND --ARG=VALUE ...` as the
-/// `generate` command makes it.
-fn generator(kind: &str, args: &[(String, Option<String>)]) -> Result<String, String> {
-    let mut argv: Vec<String> = vec!["generate".into(), kind.into(), "-o".into(), "-".into()];
-    for (k, v) in args {
-        let flag = format!("--{}", k.replace('_', "-"));
-        argv.push(match v {
-            Some(v) => format!("{flag}={v}"),
-            None => flag,
-        });
-    }
-    let a = super::GenerateOnly::try_parse_from_args(&argv)?;
-    super::generate_doc(&a)
-        .map(|doc| doc.to_toml())
-        .map_err(|f| f.message)
+/// `generate` command makes it (`super::generate_from_args`); public for the
+/// sweeps of the Python package, whose rows are the command's.
+pub fn generator(kind: &str, args: &[(String, Option<String>)]) -> Result<String, String> {
+    super::generate_from_args(kind, args).map(|doc| doc.to_toml())
 }
 
 fn shard_of(s: &str) -> Result<(u64, u64), Failure> {

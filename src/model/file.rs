@@ -196,6 +196,10 @@ fn default_radius() -> f64 {
 fn default_slip() -> f64 {
     1e-4
 }
+/// A cable's `max_tension_n` when the file gives none: four times its tension.
+fn default_max_tension(tension_n: f64) -> f64 {
+    tension_n.max(0.0) * 4.0
+}
 
 #[derive(Deserialize, Debug)]
 #[serde(deny_unknown_fields)]
@@ -585,7 +589,7 @@ pub fn parse(text: &str, file: &str) -> Result<LoadedModel, ModelFileError> {
             name: c.name.get_ref().clone(),
             path,
             tension_n: c.tension_n,
-            max_tension_n: c.max_tension_n.unwrap_or(c.tension_n.max(0.0) * 4.0),
+            max_tension_n: c.max_tension_n.unwrap_or(default_max_tension(c.tension_n)),
             friction_mu: c.friction_mu,
             line_density_kg_per_m: c.line_density_kg_per_m,
             pulley_radius_m: c.pulley_radius_m,
@@ -757,7 +761,10 @@ fn check_reference(
     Ok(())
 }
 
-/// A model as written by the generators, serialized as a model file.
+/// A model file as a document: what the generators write ([`ModelDoc::to_toml`])
+/// and what [`ModelDoc::from_toml`] reads back from any model file, every key
+/// the loader takes, so that a model can be edited by name (a joint's mass, a
+/// cable's tension) and built again (`parse(&doc.to_toml(), ..)`).
 #[derive(Clone, Debug, Default)]
 pub struct ModelDoc {
     pub name: String,
@@ -766,8 +773,17 @@ pub struct ModelDoc {
     pub dt_s: f64,
     pub end_time_s: f64,
     pub damping_n_s_per_m: f64,
+    /// `[settings] gravity_m_s2` (m/s^2).
+    pub gravity_m_s2: [f64; 3],
+    /// `[settings] axial_stiffness_n`: the EA of members that name none (N);
+    /// the solver's default when None.
+    pub axial_stiffness_n: Option<f64>,
     /// Writes `[solver] elastic_members = true` (rigid members when false).
     pub elastic_members: bool,
+    /// The other `[solver]` keys, as the file gives them (`SolverSettings`).
+    pub solver: toml::Table,
+    /// `[checks]` keys, as the file gives them (`RunChecks`).
+    pub checks: toml::Table,
     pub joints: Vec<JointDoc>,
     pub elements: Vec<ElementDoc>,
     pub cables: Vec<CableDoc>,
@@ -797,6 +813,25 @@ pub struct CableDoc {
     pub max_tension_n: f64,
     pub friction_mu: f64,
     pub pulley_radius_m: f64,
+    /// Written only when not the loader's defaults (0 kg/m, 1e-4 m/s).
+    pub line_density_kg_per_m: f64,
+    pub slip_speed_m_s: f64,
+}
+
+impl Default for CableDoc {
+    /// The loader's defaults of the optional keys; no name, no path.
+    fn default() -> Self {
+        CableDoc {
+            name: String::new(),
+            path: Vec::new(),
+            tension_n: 0.0,
+            max_tension_n: 0.0,
+            friction_mu: 0.0,
+            pulley_radius_m: default_radius(),
+            line_density_kg_per_m: 0.0,
+            slip_speed_m_s: default_slip(),
+        }
+    }
 }
 
 fn q(s: &str) -> String {
@@ -831,13 +866,25 @@ impl ModelDoc {
         }
         o += "]\n\n[settings]\n";
         o += &format!(
-            "dt_s = {}\nend_time_s = {}\ngravity_m_s2 = [0.0, 0.0, 0.0]\ndamping_n_s_per_m = {}\n",
+            "dt_s = {}\nend_time_s = {}\ngravity_m_s2 = {}\ndamping_n_s_per_m = {}\n",
             num(self.dt_s),
             num(self.end_time_s),
+            arr3(self.gravity_m_s2),
             num(self.damping_n_s_per_m)
         );
-        if self.elastic_members {
-            o += "\n[solver]\nelastic_members = true\n";
+        if let Some(ea) = self.axial_stiffness_n {
+            o += &format!("axial_stiffness_n = {}\n", num(ea));
+        }
+        if self.elastic_members || !self.solver.is_empty() {
+            o += "\n[solver]\n";
+            if self.elastic_members {
+                o += "elastic_members = true\n";
+            }
+            o += &table_keys(&self.solver);
+        }
+        if !self.checks.is_empty() {
+            o += "\n[checks]\n";
+            o += &table_keys(&self.checks);
         }
         for j in &self.joints {
             o += &format!(
@@ -874,7 +921,176 @@ impl ModelDoc {
                 num(c.friction_mu),
                 num(c.pulley_radius_m)
             );
+            if c.line_density_kg_per_m != 0.0 {
+                o += &format!("line_density_kg_per_m = {}\n", num(c.line_density_kg_per_m));
+            }
+            if c.slip_speed_m_s != default_slip() {
+                o += &format!("slip_speed_m_s = {}\n", num(c.slip_speed_m_s));
+            }
         }
         o
+    }
+
+    /// The document of a model file's text (every key the loader takes,
+    /// defaults filled in as the loader fills them), checked as [`parse`]
+    /// checks it: a text that does not load is refused with the same error,
+    /// naming `file`, the line and the key. `parse(&doc.to_toml(), ..)`
+    /// builds the same model as `parse(text, ..)`.
+    pub fn from_toml(text: &str, file: &str) -> Result<ModelDoc, ModelFileError> {
+        parse(text, file)?;
+        let spec: FileSpec = toml::from_str(text).map_err(|e| ModelFileError {
+            file: file.to_string(),
+            line: None,
+            message: e.message().trim().to_string(),
+        })?;
+        let raw: toml::Table = toml::from_str(text).unwrap_or_default();
+        let table = |name: &str| match raw.get(name) {
+            Some(toml::Value::Table(t)) => t.clone(),
+            _ => toml::Table::new(),
+        };
+        let mut solver = table("solver");
+        let elastic_members = matches!(
+            solver.remove("elastic_members"),
+            Some(toml::Value::Boolean(true))
+        );
+        let s = &spec.settings;
+        let num_param = |v: &toml::Value| match v {
+            toml::Value::Float(f) => Param::Num(*f),
+            toml::Value::Integer(i) => Param::Num(*i as f64),
+            toml::Value::String(t) => Param::Text(t.clone()),
+            // (parse refused any other)
+            other => Param::Text(other.to_string()),
+        };
+        Ok(ModelDoc {
+            name: spec.model.name,
+            description: spec.model.description,
+            notes: spec.model.notes,
+            dt_s: s.dt_s,
+            end_time_s: s.end_time_s,
+            damping_n_s_per_m: s.damping_n_s_per_m,
+            gravity_m_s2: s.gravity_m_s2,
+            axial_stiffness_n: s.axial_stiffness_n,
+            elastic_members,
+            solver,
+            checks: table("checks"),
+            joints: spec
+                .joints
+                .into_iter()
+                .map(|j| {
+                    let j = j.into_inner();
+                    JointDoc {
+                        name: j.name.into_inner(),
+                        position_m: j.position_m,
+                        mass_kg: j.mass_kg,
+                        reference_m: j.reference_m,
+                    }
+                })
+                .collect(),
+            elements: spec
+                .elements
+                .into_iter()
+                .map(|e| {
+                    // (the parameters in the file's order: the entry's text
+                    // names each once, as `key = value` on a line)
+                    let entry = text.get(e.span()).unwrap_or("");
+                    let at = |k: &str| {
+                        entry
+                            .lines()
+                            .position(|l| l.split('=').next().map(str::trim) == Some(k))
+                    };
+                    let e = e.into_inner();
+                    let mut params: Vec<(String, Param)> = e
+                        .params
+                        .iter()
+                        .map(|(k, v)| (k.clone(), num_param(v)))
+                        .collect();
+                    params.sort_by_key(|(k, _)| at(k).unwrap_or(usize::MAX));
+                    ElementDoc {
+                        kind: e.kind.into_inner(),
+                        name: e.name.into_inner(),
+                        joints: e.joints.into_iter().map(Spanned::into_inner).collect(),
+                        params,
+                    }
+                })
+                .collect(),
+            cables: spec
+                .cables
+                .into_iter()
+                .map(|c| {
+                    let c = c.into_inner();
+                    CableDoc {
+                        name: c.name.into_inner(),
+                        path: c
+                            .path
+                            .into_inner()
+                            .into_iter()
+                            .map(Spanned::into_inner)
+                            .collect(),
+                        tension_n: c.tension_n,
+                        max_tension_n: c.max_tension_n.unwrap_or(default_max_tension(c.tension_n)),
+                        friction_mu: c.friction_mu,
+                        pulley_radius_m: c.pulley_radius_m,
+                        line_density_kg_per_m: c.line_density_kg_per_m,
+                        slip_speed_m_s: c.slip_speed_m_s,
+                    }
+                })
+                .collect(),
+        })
+    }
+}
+
+/// `key = value` lines of a table's keys, in its order.
+fn table_keys(t: &toml::Table) -> String {
+    t.iter().map(|(k, v)| format!("{k} = {v}\n")).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A file read as a document and written again builds the same model,
+    /// with every optional key of the format (gravity, EA, `[solver]`,
+    /// `[checks]`, a cable's density and slip speed); the bundled models,
+    /// which the generators wrote, come back as the same text.
+    #[test]
+    fn a_document_writes_back_the_model_it_was_read_from() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../models");
+        for name in [
+            "pantograph_mast",
+            "double_ring",
+            "double_ring_synchronized",
+            "sail_array",
+        ] {
+            let text = std::fs::read_to_string(dir.join(format!("{name}.toml"))).unwrap();
+            let doc = ModelDoc::from_toml(&text, name).expect("loads");
+            assert_eq!(doc.to_toml(), text, "{name}");
+        }
+        let mast = std::fs::read_to_string(dir.join("pantograph_mast.toml")).unwrap();
+        let text = mast
+            .replace(
+                "gravity_m_s2 = [0.0, 0.0, 0.0]\ndamping_n_s_per_m = 0.0",
+                "gravity_m_s2 = [0.0, 0.0, -0.5]\ndamping_n_s_per_m = 0.1\naxial_stiffness_n = 2e6\n\n[checks]\nmax_steps = 5000\nstall_time_s = 2.5\n\n[solver]\nnewmark_max_iterations = 70\nlock_tol_m = 2e-9",
+            )
+            .replace(
+                "pulley_radius_m = 0.01\n",
+                "pulley_radius_m = 0.01\nline_density_kg_per_m = 0.001\nslip_speed_m_s = 2e-4\n",
+            );
+        let direct = parse(&text, "m").expect("loads");
+        let doc = ModelDoc::from_toml(&text, "m").expect("loads");
+        let again = parse(&doc.to_toml(), "m").expect("loads");
+        assert_eq!(format!("{:?}", direct.model), format!("{:?}", again.model));
+        assert_eq!(
+            format!("{:?}", direct.checks),
+            format!("{:?}", again.checks)
+        );
+        assert_eq!(again.model.solver.newmark_max_iterations, 70);
+        assert_eq!(again.model.cables[0].slip_speed_m_s, 2e-4);
+        let e = ModelDoc::from_toml(
+            &text.replace("mass_kg = 0.15", "mass_kg = -1.0"),
+            "bad.toml",
+        )
+        .expect_err("refused");
+        assert_eq!(e.file, "bad.toml");
+        assert!(e.line.is_some() && e.message.contains("mass_kg"), "{e}");
     }
 }

@@ -434,6 +434,17 @@ pub fn read_parts(dir: &Path) -> Result<(Meta, Vec<Row>), SweepFailure> {
 /// Writes `results.parquet` and `summary.json` of all rows; the summary.
 pub fn write_results(dir: &Path, m: &Meta, rows: &[Row]) -> Result<stats::Summary, SweepFailure> {
     let summary = stats::summarize(&m.name, &m.sweep_id, &m.keys, &m.columns, rows);
+    let bytes = results_parquet(m, rows)?;
+    write_atomic(&dir.join("results.parquet"), &bytes)?;
+    let text = serde_json::to_string_pretty(&summary).expect("summary serializes") + "\n";
+    write_atomic(&dir.join("summary.json"), text.as_bytes())?;
+    Ok(summary)
+}
+
+/// `results.parquet` of all rows, as bytes: one row per sample, the sweep's
+/// name, id and parameters in its key-value metadata (also the Python
+/// package's sweep table).
+pub fn results_parquet(m: &Meta, rows: &[Row]) -> Result<Vec<u8>, SweepFailure> {
     let metadata = vec![
         ("truss_deploy.sweep".to_string(), m.name.clone()),
         ("truss_deploy.sweep_id".to_string(), m.sweep_id.clone()),
@@ -443,11 +454,7 @@ pub fn write_results(dir: &Path, m: &Meta, rows: &[Row]) -> Result<stats::Summar
                 .expect("keys serialize"),
         ),
     ];
-    let bytes = parquet_out::to_parquet(rows, &m.columns, &metadata).map_err(failed)?;
-    write_atomic(&dir.join("results.parquet"), &bytes)?;
-    let text = serde_json::to_string_pretty(&summary).expect("summary serializes") + "\n";
-    write_atomic(&dir.join("summary.json"), text.as_bytes())?;
-    Ok(summary)
+    parquet_out::to_parquet(rows, &m.columns, &metadata).map_err(failed)
 }
 
 /// Rebuilds a sweep from its directory's `sweep.json` (for `rerun`), and

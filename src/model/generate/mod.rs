@@ -246,7 +246,9 @@ pub fn mast(p: &MastParams) -> Result<ModelDoc, String> {
             max_tension_n: p.max_tension_n,
             friction_mu: p.friction_mu,
             pulley_radius_m: 0.01,
+            ..CableDoc::default()
         }],
+        ..Default::default()
     })
 }
 

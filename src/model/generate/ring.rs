@@ -564,6 +564,7 @@ fn synchronized_ring(p: &RingParams) -> Result<ModelDoc, String> {
         max_tension_n: p.max_tension_n,
         friction_mu: p.friction_mu,
         pulley_radius_m: 0.01,
+        ..CableDoc::default()
     };
     Ok(ModelDoc {
         name: "double_ring".into(),
@@ -599,5 +600,6 @@ fn synchronized_ring(p: &RingParams) -> Result<ModelDoc, String> {
         joints,
         elements,
         cables: vec![cable("O"), cable("I")],
+        ..Default::default()
     })
 }

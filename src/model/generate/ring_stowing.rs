@@ -523,6 +523,7 @@ pub fn stowing_ring(p: &RingParams) -> Result<ModelDoc, String> {
         max_tension_n: p.max_tension_n,
         friction_mu: p.friction_mu,
         pulley_radius_m: 0.01,
+        ..CableDoc::default()
     };
     let extent = horizontal_extent_m(&x0) / horizontal_extent_m(&xd);
     if p.bay_by_bay {
@@ -544,6 +545,7 @@ pub fn stowing_ring(p: &RingParams) -> Result<ModelDoc, String> {
             joints,
             elements,
             cables: vec![cable],
+            ..Default::default()
         });
     }
     let st = fold_state(p, phi0)?;
@@ -589,6 +591,7 @@ pub fn stowing_ring(p: &RingParams) -> Result<ModelDoc, String> {
         joints,
         elements,
         cables: vec![cable],
+        ..Default::default()
     })
 }
 

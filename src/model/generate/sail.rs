@@ -329,6 +329,7 @@ pub fn sail(p: &SailParams) -> Result<ModelDoc, String> {
             max_tension_n: 4.0 * p.tension_n,
             friction_mu: p.friction_mu,
             pulley_radius_m: 0.01,
+            ..CableDoc::default()
         })
         .collect();
 
@@ -370,5 +371,6 @@ pub fn sail(p: &SailParams) -> Result<ModelDoc, String> {
         joints,
         elements,
         cables,
+        ..Default::default()
     })
 }
