@@ -385,7 +385,7 @@ pub fn parse(text: &str, file: &str) -> Result<LoadedModel, ModelFileError> {
             ),
         ));
     }
-    let checks = run_checks(&spec.checks).map_err(|m| err(None, m))?;
+    let checks = run_checks(&spec.checks).map_err(|e| err(None, e.to_string()))?;
 
     // Joints: unique names, finite numbers, positive masses.
     let mut index: BTreeMap<&str, usize> = BTreeMap::new();
@@ -664,12 +664,31 @@ fn settings_line(text: &str) -> Option<std::ops::Range<usize>> {
 }
 
 /// `[checks]` over the defaults, each value checked and named.
-fn run_checks(c: &ChecksSpec) -> Result<RunChecks, String> {
-    let mut r = RunChecks::default();
-    let positive = |key: &str, v: Option<f64>| match v {
-        Some(x) if !(x.is_finite() && x > 0.0) => {
-            Err(format!("[checks] `{key}` = {x}: give a finite number > 0"))
+/// A `[checks]` number out of its range (`run_checks`): positive and
+/// finite, at least 1 for a count.
+#[derive(Debug)]
+struct ChecksError {
+    key: &'static str,
+    value: f64,
+}
+
+impl fmt::Display for ChecksError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self.key {
+            "max_steps" => write!(f, "[checks] `max_steps` = 0: give at least 1"),
+            key => write!(
+                f,
+                "[checks] `{key}` = {}: give a finite number > 0",
+                self.value
+            ),
         }
+    }
+}
+
+fn run_checks(c: &ChecksSpec) -> Result<RunChecks, ChecksError> {
+    let mut r = RunChecks::default();
+    let positive = |key: &'static str, v: Option<f64>| match v {
+        Some(x) if !(x.is_finite() && x > 0.0) => Err(ChecksError { key, value: x }),
         _ => Ok(v),
     };
     if let Some(v) = positive("energy_balance_rel_tol", c.energy_balance_rel_tol)? {
@@ -698,7 +717,10 @@ fn run_checks(c: &ChecksSpec) -> Result<RunChecks, String> {
     }
     if let Some(v) = c.max_steps {
         if v == 0 {
-            return Err("[checks] `max_steps` = 0: give at least 1".into());
+            return Err(ChecksError {
+                key: "max_steps",
+                value: 0.0,
+            });
         }
         r.max_steps = v;
     }

@@ -275,7 +275,7 @@ fn odd_or_out_of_range_sides_are_rejected() {
             ..RingParams::synchronized()
         })
         .unwrap_err();
-        assert!(e.contains("--sides"), "{e}");
+        assert!(e.0.contains("--sides"), "{e}");
     }
 }
 

@@ -93,7 +93,7 @@ fn bays_out_of_range_are_rejected() {
             ..SailParams::default()
         })
         .unwrap_err();
-        assert!(e.contains("1 to 100"), "{e}");
+        assert!(e.0.contains("1 to 100"), "{e}");
     }
     for bays in [1, 2, 7] {
         let text = sail(&SailParams {

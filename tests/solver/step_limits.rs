@@ -29,6 +29,7 @@ fn a_step_after_its_deadline_stops_before_its_first_sub_step() {
     sim.set_step_limits(StepLimits {
         deadline: Some(Instant::now()),
         cancel: None,
+        ..StepLimits::default()
     });
     match sim.step(0.05) {
         Err(SolverError::Stopped { t_s, why }) => {
@@ -52,6 +53,7 @@ fn a_long_step_stops_soon_after_its_cancel_flag_is_raised() {
     sim.set_step_limits(StepLimits {
         deadline: None,
         cancel: Some(flag.clone()),
+        ..StepLimits::default()
     });
     // One step over the ring's deployment (~620 s): thousands of sub-steps,
     // seconds of work. The flag goes up after 0.3 s.

@@ -42,7 +42,7 @@ pub fn sleeve_lock(spring: &[(String, Param)], lock_length_m: f64) -> Vec<(Strin
 
 /// The sleeves' latch parameters (checked): the compliant latch of a
 /// generator's `latch`, none for rigid latches.
-pub fn latch_params(latch: Option<&LatchParams>) -> Result<Vec<(String, Param)>, String> {
+pub fn latch_params(latch: Option<&LatchParams>) -> Result<Vec<(String, Param)>, GenerateError> {
     latch.map_or(Ok(Vec::new()), LatchParams::sleeve_params)
 }
 
@@ -56,12 +56,12 @@ pub fn latch_note(l: &LatchParams) -> String {
 
 impl LatchParams {
     /// The sleeve parameters, after checking them.
-    pub fn sleeve_params(&self) -> Result<Vec<(String, Param)>, String> {
+    pub fn sleeve_params(&self) -> Result<Vec<(String, Param)>, GenerateError> {
         let (k, c) = (self.stiffness_n_per_m, self.damping_n_s_per_m);
         if !(k.is_finite() && k > 0.0 && c.is_finite() && c >= 0.0) {
-            return Err(format!(
+            return Err(GenerateError(format!(
                 "latch stiffness {k} N/m must be > 0 and latch damping {c} N s/m >= 0"
-            ));
+            )));
         }
         Ok(vec![
             ("latch_stiffness_n_per_m".into(), Param::Num(k)),
@@ -94,11 +94,11 @@ pub(crate) fn check_drive(
     max_tension_n: f64,
     mu: f64,
     damping: f64,
-) -> Result<(), String> {
+) -> Result<(), GenerateError> {
     if !(tension_n >= 0.0 && tension_n <= max_tension_n && mu >= 0.0 && damping >= 0.0) {
-        return Err(format!(
+        return Err(GenerateError(format!(
             "drive tension {tension_n:?} N must be within 0..{max_tension_n:?} N, friction {mu:?} and damping {damping:?} N s/m must be >= 0"
-        ));
+        )));
     }
     Ok(())
 }
@@ -144,23 +144,25 @@ pub fn mast_cable_length(units: usize, rod_length_m: f64, phi: f64) -> f64 {
     (units as f64 + 1.0) * rod_length_m * phi.cos() + units as f64 * rod_length_m
 }
 
-pub fn mast(p: &MastParams) -> Result<ModelDoc, String> {
+pub fn mast(p: &MastParams) -> Result<ModelDoc, GenerateError> {
     if !(1..=500).contains(&p.units) {
-        return Err(format!(
+        return Err(GenerateError(format!(
             "--units {} is out of range; a mast has 1 to 500 units",
             p.units
-        ));
+        )));
     }
     let spring = latch_params(p.latch.as_ref())?;
     let positive = [p.rod_length_m, p.joint_mass_kg, p.dt_s];
     if positive.iter().any(|v| !(v.is_finite() && *v > 0.0)) {
-        return Err("rod length, joint mass and dt must be positive and finite".into());
+        return Err(GenerateError(
+            "rod length, joint mass and dt must be positive and finite".into(),
+        ));
     }
     if !(p.start_deg > 0.5 && p.start_deg < p.deploy_deg && p.deploy_deg < 89.0) {
-        return Err(format!(
+        return Err(GenerateError(format!(
             "start angle {} deg and deploy angle {} deg must satisfy 0.5 < start < deploy < 89",
             p.start_deg, p.deploy_deg
-        ));
+        )));
     }
     check_drive(
         p.tension_n,
@@ -255,3 +257,23 @@ pub fn mast(p: &MastParams) -> Result<ModelDoc, String> {
 pub mod ring;
 pub mod ring_stowing;
 pub mod sail;
+
+/// A generator's options that make no model (`mast`, `ring`, `sail`): the
+/// message names the option (as the command line spells it) and its range.
+#[derive(Clone, Debug, PartialEq)]
+pub struct GenerateError(pub String);
+
+impl std::fmt::Display for GenerateError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+
+impl std::error::Error for GenerateError {}
+
+/// (the command line prints the message as it is)
+impl From<GenerateError> for String {
+    fn from(e: GenerateError) -> String {
+        e.0
+    }
+}

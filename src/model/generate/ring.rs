@@ -33,6 +33,7 @@
 //!   frames' O_b fixed in z.
 
 use super::super::file::{CableDoc, ElementDoc, JointDoc, ModelDoc};
+use super::GenerateError;
 use crate::solver::elements::Param;
 
 #[derive(Clone, Debug)]
@@ -195,13 +196,13 @@ pub fn members_note(p: &RingParams) -> Option<String> {
 }
 
 /// Ring radii (r_o, r_i) of the symmetric configuration with zig-zag offset a (m).
-pub fn ring_radii(p: &RingParams, a: f64) -> Result<(f64, f64), String> {
+pub fn ring_radii(p: &RingParams, a: f64) -> Result<(f64, f64), GenerateError> {
     let s = (std::f64::consts::PI / p.sides as f64).sin();
     let (co, ci) = (p.outer_chord_m, p.inner_chord_m);
     if !(2.0 * a < ci) {
-        return Err(format!(
+        return Err(GenerateError(format!(
             "zig-zag offset {a} m exceeds half the inner chord; use a smaller start angle"
-        ));
+        )));
     }
     Ok((
         (co * co - 4.0 * a * a).sqrt() / (2.0 * s),
@@ -224,7 +225,7 @@ pub fn ring_joint_names(n: usize) -> Vec<String> {
 
 /// Joint positions of the symmetric configuration with zig-zag offset a, ring centre
 /// at the origin, in the order of `ring_joint_names`.
-pub fn ring_positions(p: &RingParams, a: f64) -> Result<Vec<[f64; 3]>, String> {
+pub fn ring_positions(p: &RingParams, a: f64) -> Result<Vec<[f64; 3]>, GenerateError> {
     let (ro, ri) = ring_radii(p, a)?;
     let n = p.sides;
     let h = p.height_m;
@@ -320,7 +321,7 @@ pub fn ring_cable_path(n: usize, ring: &str) -> Vec<String> {
 
 /// The double ring: the stowing ring, or today's synchronized ring with
 /// `synchronized` set.
-pub fn ring(p: &RingParams) -> Result<ModelDoc, String> {
+pub fn ring(p: &RingParams) -> Result<ModelDoc, GenerateError> {
     check_params(p)?;
     if p.synchronized {
         synchronized_ring(p)
@@ -330,26 +331,26 @@ pub fn ring(p: &RingParams) -> Result<ModelDoc, String> {
 }
 
 /// Checks shared by both rings.
-fn check_params(p: &RingParams) -> Result<(), String> {
+fn check_params(p: &RingParams) -> Result<(), GenerateError> {
     let n = p.sides;
     if !(6..=360).contains(&n) || n % 2 != 0 {
-        return Err(format!("--sides {n}: a double ring has an even number of sides from 6 to 360 (the bays fold in a zig-zag)"));
+        return Err(GenerateError(format!("--sides {n}: a double ring has an even number of sides from 6 to 360 (the bays fold in a zig-zag)")));
     }
     if !(p.start_deg > 0.0 && p.start_deg < 80.0) {
-        return Err(format!(
+        return Err(GenerateError(format!(
             "start angle {} deg must be between 0 and 80",
             p.start_deg
-        ));
+        )));
     }
     if !(p.inner_chord_m > 0.0
         && p.inner_chord_m < p.outer_chord_m
         && p.height_m > 0.0
         && p.joint_mass_kg > 0.0)
     {
-        return Err(
+        return Err(GenerateError(
             "chords, height and mass must be positive, the inner chord shorter than the outer"
                 .into(),
-        );
+        ));
     }
     super::check_drive(
         p.tension_n,
@@ -360,13 +361,13 @@ fn check_params(p: &RingParams) -> Result<(), String> {
     Ok(())
 }
 
-fn synchronized_ring(p: &RingParams) -> Result<ModelDoc, String> {
+fn synchronized_ring(p: &RingParams) -> Result<ModelDoc, GenerateError> {
     let n = p.sides;
     if p.sync != "none" && !["both", "axial", "radial"].contains(&p.sync.as_str()) {
-        return Err(format!(
+        return Err(GenerateError(format!(
             "--sync {}: use both, axial, radial or none",
             p.sync
-        ));
+        )));
     }
     let a0 = 0.5 * p.outer_chord_m * p.start_deg.to_radians().sin();
     let x0 = ring_positions(p, a0)?;
@@ -378,9 +379,9 @@ fn synchronized_ring(p: &RingParams) -> Result<ModelDoc, String> {
         "hub" => true,
         "frame0" => false,
         other => {
-            return Err(format!(
+            return Err(GenerateError(format!(
                 "--mount {other}: use `hub` (held at the centre) or `frame0` (held at one post)"
-            ))
+            )))
         }
     };
     let joints = ring_joints(p, &x0, &xd, !hub);

@@ -38,6 +38,7 @@ use super::ring::{
     fix_joint, hub_mount, members_note, ring_joints, RingParams, CHORD_UNIT_NOTE, DAMPING_NOTE,
     NUMBERING_NOTE,
 };
+use super::GenerateError;
 use crate::solver::elements::Param;
 use std::f64::consts::PI;
 
@@ -63,7 +64,7 @@ pub fn ring_depth_m(p: &RingParams) -> f64 {
 /// (inner bays sheared the other way, a_i <= 0), by bisection on psi of
 /// f(psi) = r_o - r_i(a_o - w sin psi) - w cos psi, from psi where a_i = 0 (f <= 0)
 /// to where the inner chord is vertical (r_i = 0, f >= 0).
-pub fn fold_state(p: &RingParams, phi: f64) -> Result<FoldState, String> {
+pub fn fold_state(p: &RingParams, phi: f64) -> Result<FoldState, GenerateError> {
     let s = (PI / p.sides as f64).sin();
     let (co, ci) = (p.outer_chord_m, p.inner_chord_m);
     let w = ring_depth_m(p);
@@ -87,11 +88,11 @@ pub fn fold_state(p: &RingParams, phi: f64) -> Result<FoldState, String> {
     let hi0 = ((a_o + 0.5 * ci) / w).min(1.0).asin();
     let (mut lo, mut hi) = (lo0, hi0);
     if !(f(lo) <= 0.0 && f(hi) >= 0.0) {
-        return Err(format!(
+        return Err(GenerateError(format!(
             "a {}-sided ring with chords {co} m and {ci} m (depth {w:.4} m) does not fold to {:.1} deg: its inner bays reach vertical first; use a smaller --start-deg",
             p.sides,
             phi.to_degrees()
-        ));
+        )));
     }
     for _ in 0..200 {
         let mid = 0.5 * (lo + hi);
@@ -113,7 +114,7 @@ pub fn fold_state(p: &RingParams, phi: f64) -> Result<FoldState, String> {
 
 /// Joint positions of the symmetric fold at outer chord tilt phi (rad), ring axis
 /// along z through the origin, in the order of `ring_joint_names`.
-pub fn stowing_positions(p: &RingParams, phi: f64) -> Result<Vec<[f64; 3]>, String> {
+pub fn stowing_positions(p: &RingParams, phi: f64) -> Result<Vec<[f64; 3]>, GenerateError> {
     let st = fold_state(p, phi)?;
     let n = p.sides;
     let h = p.height_m;
@@ -172,7 +173,7 @@ pub fn bay_by_bay_end_time_s(sides: usize) -> f64 {
 /// frame shears (te, to) = (theta_d + x, theta_d - x) that keep every inner
 /// chord at c_i, continued from x = 0 at phi = 0 in 200 steps of phi (at
 /// each, the first sign change above the last x, then bisection).
-pub fn raised_fold(p: &RingParams, phi: f64) -> Result<(f64, f64), String> {
+pub fn raised_fold(p: &RingParams, phi: f64) -> Result<(f64, f64), GenerateError> {
     let thd = p.frame_shear_deg.to_radians();
     if phi == 0.0 {
         return Ok((thd, thd));
@@ -196,11 +197,11 @@ pub fn raised_fold(p: &RingParams, phi: f64) -> Result<(f64, f64), String> {
             dx *= 1.5;
             hi = lo + dx;
             if hi > PI {
-                return Err(format!(
+                return Err(GenerateError(format!(
                     "the bay-by-bay ring does not fold to {:.1} deg (past {:.1} deg no frame shear keeps the inner chords at their length); use a smaller --start-deg",
                     phi.to_degrees(),
                     ph.to_degrees()
-                ));
+                )));
             }
         }
         for _ in 0..100 {
@@ -218,7 +219,7 @@ pub fn raised_fold(p: &RingParams, phi: f64) -> Result<(f64, f64), String> {
 
 /// Bay-by-bay ring: joint positions of the 2-periodic fold at outer chord
 /// tilt phi (rad), ring axis along z, in the order of `ring_joint_names`.
-pub fn raised_positions(p: &RingParams, phi: f64) -> Result<Vec<[f64; 3]>, String> {
+pub fn raised_positions(p: &RingParams, phi: f64) -> Result<Vec<[f64; 3]>, GenerateError> {
     let (te, to) = raised_fold(p, phi)?;
     let n = p.sides;
     let (h, w) = (p.height_m, raised_batten_m(p));
@@ -274,7 +275,7 @@ pub fn horizontal_extent_m(x: &[[f64; 3]]) -> f64 {
         .fold(0.0, f64::max)
 }
 
-pub fn stowing_ring(p: &RingParams) -> Result<ModelDoc, String> {
+pub fn stowing_ring(p: &RingParams) -> Result<ModelDoc, GenerateError> {
     let n = p.sides;
     let phi0 = p.start_deg.to_radians();
     let (x0, xd) = if p.bay_by_bay {
@@ -286,9 +287,9 @@ pub fn stowing_ring(p: &RingParams) -> Result<ModelDoc, String> {
         "post" => true,
         "hub" => false,
         other => {
-            return Err(format!(
+            return Err(GenerateError(format!(
                 "--mount {other}: the stowing ring is held at `post` (post O0 clamped to a boom) or `hub` (at its centre)"
-            ))
+            )))
         }
     };
     // Held at post O0, the deployed ring is placed where that post starts; held at
@@ -444,9 +445,9 @@ pub fn stowing_ring(p: &RingParams) -> Result<ModelDoc, String> {
         // spring-damper instead of imposed.
         let (gk, gc) = (p.gear.stiffness_n_per_m, p.gear.damping_n_s_per_m);
         if !(gk.is_finite() && gk > 0.0 && gc.is_finite() && gc >= 0.0) {
-            return Err(format!(
+            return Err(GenerateError(format!(
                 "gear stiffness {gk} N/m must be > 0 and gear damping {gc} N s/m >= 0"
-            ));
+            )));
         }
         for k in 0..n {
             let params = vec![

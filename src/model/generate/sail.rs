@@ -17,6 +17,7 @@
 //! The two motor drums follow as `drum_A` and `drum_B`.
 
 use super::super::file::{CableDoc, ElementDoc, JointDoc, ModelDoc};
+use super::GenerateError;
 use crate::solver::elements::Param;
 
 #[derive(Clone, Debug)]
@@ -198,12 +199,12 @@ pub fn sail_cable_length(p: &SailParams, alpha: f64) -> f64 {
     p.drum_drop_m + (n + 2.0) * l * alpha.cos() + n * l
 }
 
-pub fn sail(p: &SailParams) -> Result<ModelDoc, String> {
+pub fn sail(p: &SailParams) -> Result<ModelDoc, GenerateError> {
     if !(1..=100).contains(&p.bays) {
-        return Err(format!(
+        return Err(GenerateError(format!(
             "--bays {} is out of range; a sail array has 1 to 100 bays (scissor units per boom)",
             p.bays
-        ));
+        )));
     }
     let positive = [
         p.dt_s,
@@ -214,21 +215,21 @@ pub fn sail(p: &SailParams) -> Result<ModelDoc, String> {
         p.drum_drop_m,
     ];
     if !(p.deck_fold_deg >= 0.0 && p.deck_fold_deg < 30.0) {
-        return Err(format!(
+        return Err(GenerateError(format!(
             "deck fold at deployment {} deg must be in 0 to 30 deg",
             p.deck_fold_deg
-        ));
+        )));
     }
     if positive.iter().any(|v| !(v.is_finite() && *v > 0.0)) {
-        return Err(
+        return Err(GenerateError(
             "dt, pitch, width, joint masses and drum drop must be positive and finite".into(),
-        );
+        ));
     }
     if !(p.start_deg >= 0.5 && p.start_deg < p.deploy_deg && p.deploy_deg < 89.0) {
-        return Err(format!(
+        return Err(GenerateError(format!(
             "start angle {} deg and deploy angle {} deg must satisfy 0.5 <= start < deploy < 89",
             p.start_deg, p.deploy_deg
-        ));
+        )));
     }
     if !(p.tension_n.is_finite()
         && p.tension_n >= 0.0
@@ -237,7 +238,9 @@ pub fn sail(p: &SailParams) -> Result<ModelDoc, String> {
         && p.damping_n_s_per_m.is_finite()
         && p.damping_n_s_per_m >= 0.0)
     {
-        return Err("tension, friction and damping must be finite and >= 0".into());
+        return Err(GenerateError(
+            "tension, friction and damping must be finite and >= 0".into(),
+        ));
     }
     let (a0, ad) = (p.start_deg.to_radians(), p.deploy_deg.to_radians());
     let n = p.bays;
