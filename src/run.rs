@@ -129,6 +129,54 @@ pub trait RunObserver {
 pub struct NoObserver;
 impl RunObserver for NoObserver {}
 
+/// A step and a run length that make no bounded, meaningful run
+/// (`check_step_count`); `dt_from` names where dt came from (`--dt`, `dt_s`).
+#[derive(Clone, Debug, PartialEq)]
+pub enum StepCountError {
+    /// dt longer than the whole run.
+    LongerThanRun {
+        dt_from: String,
+        dt_s: f64,
+        until_s: f64,
+    },
+    /// dt below `min_dt_fraction` of the run.
+    TooShort {
+        dt_from: String,
+        dt_s: f64,
+        until_s: f64,
+        min_dt_fraction: f64,
+    },
+    /// More steps than `[checks] max_steps`.
+    OverBudget {
+        dt_from: String,
+        dt_s: f64,
+        until_s: f64,
+        steps: f64,
+        max_steps: u64,
+    },
+}
+
+impl std::fmt::Display for StepCountError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            StepCountError::LongerThanRun { dt_from, dt_s: dt, until_s: until } => write!(
+                f,
+                "{dt_from} {dt:?} s is longer than the run ({until:?} s); give a step shorter than the run"
+            ),
+            StepCountError::TooShort { dt_from, dt_s: dt, until_s: until, min_dt_fraction } => write!(
+                f,
+                "{dt_from} {dt:?} s is below {min_dt_fraction:e} of the run ({until:?} s); give a larger step or a shorter --until"
+            ),
+            StepCountError::OverBudget { dt_from, dt_s: dt, until_s: until, steps, max_steps } => write!(
+                f,
+                "{dt_from} {dt:?} s over {until:?} s makes {steps:.0} steps, more than the budget of {max_steps} ([checks] max_steps); give a larger step or a shorter --until"
+            ),
+        }
+    }
+}
+
+impl std::error::Error for StepCountError {}
+
 /// The step and the run length must make a bounded, meaningful run: dt at
 /// most the whole run, at least `min_dt_fraction` of it, and no more steps
 /// than `max_steps`. `dt_from` names where dt came from (`--dt`, `dt_s`).
@@ -137,24 +185,32 @@ pub fn check_step_count(
     until: f64,
     dt_from: &str,
     checks: &RunChecks,
-) -> Result<(), String> {
+) -> Result<(), StepCountError> {
+    let dt_from = dt_from.to_string();
     if dt > until {
-        return Err(format!(
-            "{dt_from} {dt:?} s is longer than the run ({until:?} s); give a step shorter than the run"
-        ));
+        return Err(StepCountError::LongerThanRun {
+            dt_from,
+            dt_s: dt,
+            until_s: until,
+        });
     }
     if dt < checks.min_dt_fraction * until {
-        return Err(format!(
-            "{dt_from} {dt:?} s is below {:e} of the run ({until:?} s); give a larger step or a shorter --until",
-            checks.min_dt_fraction
-        ));
+        return Err(StepCountError::TooShort {
+            dt_from,
+            dt_s: dt,
+            until_s: until,
+            min_dt_fraction: checks.min_dt_fraction,
+        });
     }
     let steps = (until / dt).ceil();
     if steps > checks.max_steps as f64 {
-        return Err(format!(
-            "{dt_from} {dt:?} s over {until:?} s makes {steps:.0} steps, more than the budget of {} ([checks] max_steps); give a larger step or a shorter --until",
-            checks.max_steps
-        ));
+        return Err(StepCountError::OverBudget {
+            dt_from,
+            dt_s: dt,
+            until_s: until,
+            steps,
+            max_steps: checks.max_steps,
+        });
     }
     Ok(())
 }
