@@ -44,8 +44,24 @@ use super::SolverError;
 /// depend on how often forces are asked for), factored afresh for every
 /// split (which then depends on its inputs alone), and the row-scaled
 /// Jacobian.
+///
+/// The row scaling spreads S_w's diagonal over RIGID_ROW_EPS^-1 (1e6): on
+/// it the sparse backend's minimum-norm solve can find the right-hand side
+/// inconsistent and give the least-squares answer of its projected
+/// Richardson iteration unconverged, multipliers whose A^T lambda is not f
+/// at all (the bundled sail: latch impulses 0.002 N s for 1.34 N s, energies
+/// lost that were negative). Such a split is made again by the dense SVD
+/// (exact in least squares), up to `rank_check_max_coords`; beyond it the
+/// sparse answer is kept and counted inexact.
 pub struct LeastWork {
     solver: Box<dyn ConstraintSolver>,
+    /// The dense backend for the splits the sparse one cannot give exactly
+    /// (made on first need).
+    dense: Option<Box<dyn ConstraintSolver>>,
+    /// Splits made again by the dense backend, and splits kept though the
+    /// sparse solve was not exact (the model beyond `rank_check_max_coords`).
+    pub dense_splits: u64,
+    pub inexact_splits: u64,
     jac: Jacobian,
     /// Per row of `jac`: c_i (m/N) for members, NaN for rigid rows.
     compliance: Vec<f64>,
@@ -62,6 +78,9 @@ impl LeastWork {
     pub fn new(kind: SolverKind) -> LeastWork {
         LeastWork {
             solver: kind.make(),
+            dense: None,
+            dense_splits: 0,
+            inexact_splits: 0,
             jac: Jacobian::default(),
             compliance: Vec::new(),
             weight: Vec::new(),
@@ -103,13 +122,24 @@ impl LeastWork {
             self.dx.resize(jac.ncols, 0.0);
         }
         let mut lambda_eps = std::mem::take(&mut self.lambda_eps);
-        let solved = self
-            .solve(model, jac, f, RIGID_ROW_EPS, &mut lambda_eps)
-            .and_then(|()| self.solve(model, jac, f, 0.5 * RIGID_ROW_EPS, lambda));
-        for (l, le) in lambda.iter_mut().zip(&lambda_eps) {
-            *l = 2.0 * *l - le; // Richardson: the limit of rigid non-member rows
+        let mut dense = false;
+        let mut solved = self.split(model, jac, f, &mut lambda_eps, lambda, dense);
+        if let Ok(false) = solved {
+            // (an inexact sparse split: the dense SVD's, where it is affordable)
+            if jac.ncols <= model.solver.rank_check_max_coords {
+                dense = true;
+                self.dense_splits += 1;
+                solved = self.split(model, jac, f, &mut lambda_eps, lambda, dense);
+            } else {
+                self.inexact_splits += 1;
+            }
         }
         self.lambda_eps = lambda_eps;
+        if let Ok(false) = solved {
+            if dense {
+                self.inexact_splits += 1;
+            }
+        }
         solved?;
         if lambda.iter().any(|v| !v.is_finite()) {
             return Err(SolverError::NonFinite("least-work multipliers".into()));
@@ -117,8 +147,29 @@ impl LeastWork {
         Ok(())
     }
 
+    /// The split at eps and eps / 2 and their Richardson extrapolation into
+    /// `lambda` (`lambda_eps`: scratch), on the dense backend or the
+    /// model's; Ok(whether both solves were exact: converged, not answered
+    /// in least squares by an iteration).
+    fn split(
+        &mut self,
+        model: &Model,
+        jac: &Jacobian,
+        f: &[f64],
+        lambda_eps: &mut [f64],
+        lambda: &mut [f64],
+        dense: bool,
+    ) -> Result<bool, SolverError> {
+        let exact_eps = self.solve(model, jac, f, RIGID_ROW_EPS, lambda_eps, dense)?;
+        let exact_half = self.solve(model, jac, f, 0.5 * RIGID_ROW_EPS, lambda, dense)?;
+        for (l, le) in lambda.iter_mut().zip(lambda_eps.iter()) {
+            *l = 2.0 * *l - le; // Richardson: the limit of rigid non-member rows
+        }
+        Ok(exact_eps && exact_half)
+    }
+
     /// lambda minimizing sum c_i lambda_i^2 with A^T lambda = f, rows that are
-    /// not members at c = eps c_min.
+    /// not members at c = eps c_min; Ok(whether the solve was exact).
     fn solve(
         &mut self,
         model: &Model,
@@ -126,7 +177,8 @@ impl LeastWork {
         f: &[f64],
         eps: f64,
         lambda: &mut [f64],
-    ) -> Result<(), SolverError> {
+        dense: bool,
+    ) -> Result<bool, SolverError> {
         let rigid = eps * model.stiffest_compliance_m_per_n;
         for (w, c) in self.weight.iter_mut().zip(&self.compliance) {
             *w = 1.0 / if c.is_finite() { *c } else { rigid }.sqrt();
@@ -150,10 +202,14 @@ impl LeastWork {
         self.jac.mul(&self.dx, &mut self.r);
         // (a fresh factorization: the split depends on the state alone,
         // not on the solves before it)
-        self.solver.forget();
-        self.solver
-            .factor(&self.jac, &model.inv_mass, SolveMode::MinNorm)?;
-        self.solver.correction(
+        let solver = if dense {
+            self.dense.get_or_insert_with(|| SolverKind::Dense.make())
+        } else {
+            &mut self.solver
+        };
+        solver.forget();
+        solver.factor(&self.jac, &model.inv_mass, SolveMode::MinNorm)?;
+        let report = solver.correction(
             &self.jac,
             &model.inv_mass,
             &self.r,
@@ -163,7 +219,8 @@ impl LeastWork {
         for ((l, m), w) in lambda.iter_mut().zip(&self.mu).zip(&self.weight) {
             *l = m * w;
         }
-        Ok(())
+        // (the dense SVD's least squares is exact: the iterative one's is not)
+        Ok(report.converged && (dense || !report.least_squares))
     }
 }
 

@@ -122,6 +122,12 @@ pub struct Fallbacks {
     pub projection_min_norm: u64,
     /// A velocity projection was redone in least squares (the dropped rows' residual stood out).
     pub velocity_min_norm: u64,
+    /// A least-work split (latch impulses, member forces) that the sparse
+    /// backend's minimum-norm solve did not give exactly was made again by
+    /// the dense SVD (`crate::solver::least_work`).
+    pub least_work_dense: u64,
+    /// ... and was kept inexact: the model is beyond `rank_check_max_coords`.
+    pub least_work_inexact: u64,
     /// A kept factorization gave a slow or inaccurate solve and was refactored.
     pub solve_refactored: u64,
     /// A basic solve was inaccurate with a fresh factorization: redundant rows probed again.
@@ -159,10 +165,11 @@ impl SolverStats {
     /// others
     /// (halvings, restarts, Newton switches, refactorizations, ...) change
     /// the route to a result that meets its tolerance.
-    pub fn accepting_fallbacks_by_kind(&self) -> [(&'static str, u64); 4] {
+    pub fn accepting_fallbacks_by_kind(&self) -> [(&'static str, u64); 5] {
         let f = &self.fallbacks;
         [
             ("unconverged solves", f.solve_unconverged),
+            ("inexact least-work splits", f.least_work_inexact),
             ("unconverged inertia fixed points", f.consistent_unconverged),
             ("sub-steps making energy", f.substep_energy_accepted),
             (
@@ -192,6 +199,7 @@ impl SolverStats {
              {} latch searches ({} trial steps), {} latches, {} restart sub-steps taken backward-Euler, {} sub-steps cut at contacts, {} halved on their ledger's budget; fallbacks: {} halvings ({} at blend entries, {} for energy, {} accepted making energy, {} over their ledger's budget at the shortest), \
              {} blend entries taken again backward-Euler, {} Newton switches failed ({} retried with secant slopes), {} Newmark min-norm, {} lagged friction, {} projection min-norm, {} velocity min-norm, \
              {} refactored, {} re-probed, {} least-squares, {} unconverged solves, \
+             {} least-work splits made dense ({} inexact), \
              {} dips rejected, {} root searches at their limit, \
              {} inertia fixed points unconverged, {} latches unsettled at their limit, \
              {} compliant latches with no compliance",
@@ -232,6 +240,8 @@ impl SolverStats {
             f.solve_reprobed,
             f.solve_least_squares,
             f.solve_unconverged,
+            f.least_work_dense,
+            f.least_work_inexact,
             f.dips_rejected,
             f.root_search_limit,
             f.consistent_unconverged,

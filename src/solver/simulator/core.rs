@@ -323,7 +323,12 @@ impl Core {
     /// rows of the Jacobian as last filled, on its own backend (`least_work`).
     pub fn least_work_split(&mut self, model: &Model, kind: SolverKind) -> Result<(), SolverError> {
         let lw = self.least_work.get_or_insert_with(|| LeastWork::new(kind));
-        lw.multipliers(model, &self.jac, &self.dx, &mut self.mu)
+        let (dense, inexact) = (lw.dense_splits, lw.inexact_splits);
+        let result = lw.multipliers(model, &self.jac, &self.dx, &mut self.mu);
+        let f = &mut self.stats.fallbacks;
+        f.least_work_dense += lw.dense_splits - dense;
+        f.least_work_inexact += lw.inexact_splits - inexact;
+        result
     }
 
     /// Inverse effective mass of the structure along sleeve `e` at the trial
