@@ -247,7 +247,7 @@ def run_truss(binary, model, dt, json_out, until_s):
     """`simulate` to the deploy time; `--until` past the exact one (the generated model's
     end_time_s of 600 s is short of the 256-unit mast's 1,548 s)."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    proc = subprocess.run([binary, "simulate", model, "--dt", repr(dt), "--until", repr(until_s),
+    proc = subprocess.run([binary, "simulate", model, "--dt", repr(dt), "--until", repr(float(until_s)),
                            "--json", json_out],
                           capture_output=True, text=True)
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
