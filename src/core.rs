@@ -13,3 +13,7 @@ pub mod files;
 pub mod model;
 pub mod run;
 pub mod solver;
+
+/// `simulate --report` (src/record/report.rs).
+#[path = "record/report.rs"]
+pub mod report;
