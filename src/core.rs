@@ -6,11 +6,13 @@
 //! [`solver`] is the pure simulator core (Xu Yan et al.'s macroelement method with
 //! exact latch events and drift-free projection); [`model`] reads, validates and
 //! generates model files; [`run`] runs one model to deployment (for `simulate` and
-//! every sweep sample); [`files`] writes files atomically. Sweeps are the crate
+//! every sweep sample); [`record`] holds what a run records as it steps
+//! (frames, CSV, ParaView series); [`files`] writes files atomically. Sweeps are the crate
 //! `truss-deploy-sweep` (src/sweep/).
 
 pub mod files;
 pub mod model;
+pub mod record;
 pub mod run;
 pub mod solver;
 

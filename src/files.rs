@@ -25,9 +25,14 @@ pub struct AtomicFile {
 
 impl AtomicFile {
     pub fn create(target: &Path) -> Result<AtomicFile, String> {
+        AtomicFile::open(target).map_err(|e| format!("cannot write {}: {e}", target.display()))
+    }
+
+    /// As [`AtomicFile::create`], with the I/O error as it is (the caller
+    /// names the path).
+    pub fn open(target: &Path) -> std::io::Result<AtomicFile> {
         let temp = temp_path(target, "part");
-        let f =
-            File::create(&temp).map_err(|e| format!("cannot write {}: {e}", target.display()))?;
+        let f = File::create(&temp)?;
         Ok(AtomicFile {
             target: target.to_path_buf(),
             temp,
@@ -44,15 +49,28 @@ impl AtomicFile {
         self.finish(true)
     }
 
-    fn finish(mut self, sync: bool) -> Result<(), String> {
+    fn finish(self, sync: bool) -> Result<(), String> {
         let target = self.target.display().to_string();
-        let out = self.out.take().expect("committed once");
-        let file = out
-            .into_inner()
-            .map_err(|e| format!("cannot write {target}: {}", e.error()))?;
-        (if sync { file.sync_all() } else { Ok(()) })
-            .and_then(|_| std::fs::rename(&self.temp, &self.target))
+        self.finish_io(sync)
             .map_err(|e| format!("cannot write {target}: {e}"))
+    }
+
+    /// As [`AtomicFile::commit`], with the I/O error as it is.
+    pub fn commit_io(self) -> std::io::Result<()> {
+        self.finish_io(true)
+    }
+
+    fn finish_io(mut self, sync: bool) -> std::io::Result<()> {
+        let out = self.out.take().expect("committed once");
+        let done = out
+            .into_inner()
+            .map_err(|e| e.into_error())
+            .and_then(|file| if sync { file.sync_all() } else { Ok(()) })
+            .and_then(|_| std::fs::rename(&self.temp, &self.target));
+        if done.is_err() {
+            let _ = std::fs::remove_file(&self.temp);
+        }
+        done
     }
 }
 

@@ -26,7 +26,7 @@ macro_rules! tell {
     }};
 }
 
-pub use truss_deploy_core::{files, model, run, solver};
+pub use truss_deploy_core::{files, model, record, run, solver};
 pub use truss_deploy_sweep as sweep;
 
 pub mod cli;

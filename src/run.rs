@@ -3,8 +3,10 @@
 //! (`solver::checks`), and the summary of what was computed.
 //!
 //! The loop knows nothing of output files, progress bars or signals: the
-//! caller hooks them in through a [`RunObserver`].
+//! caller hooks them in as recorders (`record::Recorder`), which the loop
+//! calls at the start, after each step, after its checks and at the end.
 
+use crate::record::{Frame, FrameLayout, RecordError, Recorder};
 use crate::solver::checks::{self, HeldShortWatch, RunChecks, StallWatch, StickWatch};
 use crate::solver::{Energy, LockEvent, Simulator, SolverError, SolverStats, StepLimits, StopWhy};
 use serde::{Deserialize, Serialize};
@@ -84,6 +86,21 @@ pub struct RunSummary {
     pub accepting_fallbacks: u64,
     /// Per drive cable, its motor at the end of the run.
     pub motors: Vec<MotorSummary>,
+    /// Per member (bar or sleeve, in model order), its axial force and
+    /// length at the end of the run (`record::Frame`).
+    pub members: Vec<MemberSummary>,
+}
+
+/// A member at the end of a run.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct MemberSummary {
+    pub name: String,
+    /// `bar` or `sleeve`.
+    pub kind: &'static str,
+    /// Axial force (N, tension positive: `record::frame` says from what) and
+    /// length (m).
+    pub axial_force_n: f64,
+    pub length_m: f64,
 }
 
 /// A drive cable's motor at the end of a run.
@@ -112,22 +129,6 @@ pub struct RunLimits {
     pub max_wall_s: Option<f64>,
     pub cancel: Option<Arc<AtomicBool>>,
 }
-
-/// Hooks of the caller into the loop. `after_step` runs after each step,
-/// before the checks; `after_checks` after the checks passed. An `Err` stops
-/// the run with `StopReason::Error` and that message.
-pub trait RunObserver {
-    fn after_step(&mut self, _sim: &Simulator) -> Result<(), String> {
-        Ok(())
-    }
-    fn after_checks(&mut self, _sim: &mut Simulator) -> Result<(), String> {
-        Ok(())
-    }
-}
-
-/// An observer that does nothing (a sweep sample).
-pub struct NoObserver;
-impl RunObserver for NoObserver {}
 
 /// The step and the run length must make a bounded, meaningful run: dt at
 /// most the whole run, at least `min_dt_fraction` of it, and no more steps
@@ -159,11 +160,14 @@ pub fn check_step_count(
     Ok(())
 }
 
-/// Where the loop stopped: reason, message, wall time of the loop (s).
+/// Where the loop stopped: reason, message, wall time of the loop (s), and
+/// the recorders' errors at their end (`Recorder::finish`; a run that did
+/// what was asked and lost an output stops with `StopReason::Error`).
 pub struct Stop {
     pub reason: StopReason,
     pub message: String,
     pub wall_time_s: f64,
+    pub record_errors: Vec<RecordError>,
 }
 
 fn deployed_message(sim: &Simulator) -> String {
@@ -212,12 +216,14 @@ fn inexact(sim: &mut Simulator, before: &SolverStats, t_s: f64) -> String {
 }
 
 /// Steps `sim` until it deploys, reaches the end time, stalls, fails a
-/// check or a step, runs out of steps or wall time, or `obs` stops it.
+/// check or a step, runs out of steps or wall time, or a recorder fails;
+/// calls the recorders (in their order) at the start, after each step,
+/// after its checks and at the end.
 pub fn run_loop(
     sim: &mut Simulator,
     checks: &RunChecks,
     limits: RunLimits,
-    obs: &mut dyn RunObserver,
+    recorders: &mut [&mut dyn Recorder],
 ) -> Stop {
     let (dt, until) = (limits.dt_s, limits.until_s);
     let start = Instant::now();
@@ -249,7 +255,17 @@ pub fn run_loop(
     let mut stall = StallWatch::new(sim.model(), checks);
     let mut held = HeldShortWatch::new(sim.model(), checks);
     let mut stick = StickWatch::new(checks);
+    let each =
+        |recorders: &mut [&mut dyn Recorder],
+         sim: &mut Simulator,
+         hook: fn(&mut dyn Recorder, &mut Simulator) -> Result<(), RecordError>| {
+            recorders.iter_mut().try_for_each(|r| hook(&mut **r, sim))
+        };
+    let started = each(recorders, sim, |r, sim| r.start(sim));
     let (reason, message) = loop {
+        if let Err(e) = &started {
+            break (StopReason::Error, e.to_string());
+        }
         let (m, s) = (sim.model(), sim.state());
         if let Some(msg) = checks::jammed(m, s, checks) {
             break (StopReason::Stalled, msg);
@@ -314,8 +330,8 @@ pub fn run_loop(
                 ),
             );
         }
-        if let Err(e) = obs.after_step(sim) {
-            break (StopReason::Error, e);
+        if let Err(e) = each(recorders, sim, |r, sim| r.after_step(sim)) {
+            break (StopReason::Error, e.to_string());
         }
         let (m, s) = (sim.model(), sim.state());
         if let Some(why) = checks::energy_unbalanced(m, s, checks) {
@@ -339,22 +355,38 @@ pub fn run_loop(
                 format!("stalled at t = {:.6} s: {why}", s.t_s),
             );
         }
-        if let Err(e) = obs.after_checks(sim) {
-            break (StopReason::Error, e);
+        if let Err(e) = each(recorders, sim, |r, sim| r.after_checks(sim)) {
+            break (StopReason::Error, e.to_string());
         }
     };
     sim.set_step_limits(StepLimits::default());
-    Stop {
+    let mut stop = Stop {
         reason,
         message,
         wall_time_s: start.elapsed().as_secs_f64(),
+        record_errors: Vec::new(),
+    };
+    for r in recorders.iter_mut() {
+        if let Err(e) = r.finish(sim, &stop) {
+            stop.record_errors.push(e);
+        }
     }
+    if !stop.record_errors.is_empty() && stop.reason.exit_code() == 0 {
+        stop.reason = StopReason::Error;
+        stop.message = stop
+            .record_errors
+            .iter()
+            .map(|e| e.to_string())
+            .collect::<Vec<_>>()
+            .join("; ");
+    }
+    stop
 }
 
 /// The summary of what `sim` computed, stopped for `reason`.
 #[allow(clippy::too_many_arguments)]
 pub fn summarize(
-    sim: &Simulator,
+    sim: &mut Simulator,
     checks: &RunChecks,
     solver: &str,
     dt_s: f64,
@@ -363,6 +395,8 @@ pub fn summarize(
     reason: StopReason,
     message: String,
 ) -> RunSummary {
+    let layout = FrameLayout::new(sim.model());
+    let frame = Frame::capture(&layout, sim);
     let (m, s) = (sim.model(), sim.state());
     let ke = s.kinetic_energy_j(m);
     let jam = checks::jammed(m, s, checks).is_some();
@@ -402,6 +436,17 @@ pub fn summarize(
                 speed_cmd_m_s: s.motors[ci].speed_cmd_m_s,
                 tension_n: s.motor_tension_n(ci),
                 reeled_in_m: s.reeled_in_m(m, ci),
+            })
+            .collect(),
+        members: layout
+            .members
+            .iter()
+            .enumerate()
+            .map(|(k, mb)| MemberSummary {
+                name: mb.name.clone(),
+                kind: mb.kind.label(),
+                axial_force_n: frame.member_force_n[k],
+                length_m: frame.member_length_m[k],
             })
             .collect(),
     }

@@ -12,7 +12,8 @@ use pyo3::types::PyBytes;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{mpsc, Arc};
 use std::time::Duration;
-use truss_deploy::run::{self, RunLimits, RunObserver};
+use truss_deploy::record::{RecordError, Recorder as RunRecorder};
+use truss_deploy::run::{self, RunLimits};
 use truss_deploy::solver::checks::{self, RunChecks};
 use truss_deploy::solver::state::Snapshot;
 use truss_deploy::solver::{
@@ -159,8 +160,8 @@ impl Recording {
 }
 
 struct Recorder<'a>(&'a mut Option<Recording>);
-impl RunObserver for Recorder<'_> {
-    fn after_step(&mut self, sim: &Simulator) -> Result<(), String> {
+impl RunRecorder for Recorder<'_> {
+    fn after_step(&mut self, sim: &mut Simulator) -> Result<(), RecordError> {
         if let Some(r) = self.0.as_mut() {
             r.push(sim);
         }
@@ -468,7 +469,7 @@ impl PySim {
             std::thread::scope(|scope| {
                 let (tx, rx) = mpsc::channel::<()>();
                 let worker = scope.spawn(move || {
-                    let stop = run::run_loop(sim, checks, limits, &mut Recorder(recording));
+                    let stop = run::run_loop(sim, checks, limits, &mut [&mut Recorder(recording)]);
                     let _ = tx.send(());
                     stop
                 });

@@ -8,7 +8,7 @@ use super::Failure;
 use std::fs::File;
 use std::path::{Path, PathBuf};
 
-pub use crate::files::{temp_path, write_atomic, AtomicFile};
+pub use crate::files::{temp_path, write_atomic};
 
 /// The path as the file system would resolve it: the canonical parent
 /// directory joined with the file name (the file itself need not exist).

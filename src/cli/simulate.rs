@@ -8,15 +8,17 @@
 //! Whatever ends the run, the CSV (whole rows), the plots and the summary of
 //! what was computed are written.
 
-use super::output::{check_outputs, write_atomic, AtomicFile};
+use super::output::{check_outputs, write_atomic};
 use super::{interrupt, make_simulator_from, plot, Failure, SolverArg};
-use crate::run::{self, RunLimits, RunObserver};
+use crate::record::csv::CsvRecorder;
+use crate::record::{vtk, RecordError, Recorder, Thinning};
+use crate::run::{self, RunLimits};
 use crate::solver::checks;
 use crate::solver::state::MotorHold;
 use crate::solver::{LockEvent, Simulator};
+use crate::sweep::history;
 use clap::Args;
 use indicatif::{ProgressBar, ProgressStyle};
-use std::io::Write;
 use std::path::PathBuf;
 
 #[derive(Args, Debug)]
@@ -38,6 +40,22 @@ pub struct SimulateArgs {
     /// Write the summary as JSON.
     #[arg(long)]
     json: Option<PathBuf>,
+    /// Write the run's history as Parquet tables into this directory (created if missing):
+    /// joints.parquet, members.parquet, cables.parquet, latches.parquet, energy.parquet.
+    #[arg(long, value_name = "DIR")]
+    history: Option<PathBuf>,
+    /// Write the run as a ParaView series into this directory (created if missing):
+    /// run.pvd over frame_00000.vtp, ...
+    #[arg(long, value_name = "DIR")]
+    vtk: Option<PathBuf>,
+    /// --history, --vtk: record every N-th step (the first and the last always).
+    #[arg(
+        long,
+        value_name = "N",
+        default_value_t = 1,
+        allow_negative_numbers = true
+    )]
+    history_every: i64,
     /// Draw the x, y, z histories of the --joints, latch events marked (SVG).
     #[arg(long, value_name = "FILE.svg")]
     plot: Option<PathBuf>,
@@ -74,6 +92,37 @@ pub struct SimulateArgs {
 }
 
 pub use crate::run::{RunSummary as SimulateJson, StopReason};
+
+/// `--history-every N`: a whole number of steps, at least 1.
+fn history_every(a: &SimulateArgs) -> Result<u64, Failure> {
+    match u64::try_from(a.history_every) {
+        Ok(n) if n >= 1 => Ok(n),
+        _ => Err(Failure::input(format!(
+            "--history-every {} must be a whole number of steps, at least 1 (1 records every step)",
+            a.history_every
+        ))),
+    }
+}
+
+/// A directory output (`--history`, `--vtk`): an existing directory, or a
+/// new one made in an existing directory.
+fn output_dir(option: &str, dir: &std::path::Path) -> Result<(), Failure> {
+    let shown = dir.display();
+    if dir.exists() && !dir.is_dir() {
+        return Err(Failure::input(format!(
+            "{option} {shown} is not a directory; give a directory (it is created if missing)"
+        )));
+    }
+    if !dir.exists() {
+        std::fs::create_dir(dir).map_err(|e| {
+            Failure::input(format!(
+                "cannot write {option} {shown}: cannot create the directory: {e}; give a \
+                 directory in an existing, writable one"
+            ))
+        })?;
+    }
+    Ok(())
+}
 
 fn check_positive(name: &str, v: Option<f64>) -> Result<(), Failure> {
     match v {
@@ -122,63 +171,27 @@ fn motor_speeds(sim: &Simulator, args: &[String]) -> Result<Vec<(usize, f64)>, S
     Ok(out)
 }
 
-fn csv_header(sim: &Simulator) -> String {
-    let mut h = String::from("t_s");
-    for j in &sim.model().joints {
-        for c in ["x", "y", "z"] {
-            h += &format!(",{}_{c}_m", j.name);
-        }
-    }
-    h
-}
+/// `--plot` and `--snapshots`: the joints' histories, kept in memory and
+/// drawn after the run.
+struct PlotHook<'a>(&'a mut plot::Recorder);
 
-fn csv_row(out: &mut impl Write, sim: &Simulator) -> std::io::Result<()> {
-    let s = sim.state();
-    write!(out, "{}", s.t_s)?;
-    for v in &s.x {
-        write!(out, ",{v}")?;
-    }
-    writeln!(out)
-}
-
-/// `simulate`'s outputs hooked into the run loop: the CSV rows and the plot
-/// recorder after each step, the MCAP recording and the progress bar after
-/// the checks, the signal flag.
-struct Hooks<'a> {
-    csv: Option<(&'a mut AtomicFile, &'a std::path::Path)>,
-    rec: &'a mut plot::Recorder,
-    #[cfg(feature = "ros")]
-    mcap: Option<&'a mut (
-        crate::node::record::OfflineRecording,
-        std::path::PathBuf,
-        std::path::PathBuf,
-    )>,
-    bar: &'a ProgressBar,
-}
-
-impl RunObserver for Hooks<'_> {
-    fn after_step(&mut self, sim: &Simulator) -> Result<(), String> {
-        if let Some((f, path)) = self.csv.as_mut() {
-            csv_row(f.writer(), sim)
-                .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
-        }
+impl Recorder for PlotHook<'_> {
+    fn after_step(&mut self, sim: &mut Simulator) -> Result<(), RecordError> {
         let s = sim.state();
-        self.rec.record(s.t_s, &s.x);
+        self.0.record(s.t_s, &s.x);
         Ok(())
     }
+}
 
-    fn after_checks(&mut self, sim: &mut Simulator) -> Result<(), String> {
-        #[cfg(feature = "ros")]
-        if let Some((mc, temp, target)) = self.mcap.as_mut() {
-            mc.after_step(sim).map_err(|e| {
-                let e = e.replace(&temp.display().to_string(), &target.display().to_string());
-                format!("cannot record --mcap: {e}")
-            })?;
-        }
+/// The progress bar on stderr.
+struct ProgressHook<'a>(&'a ProgressBar);
+
+impl Recorder for ProgressHook<'_> {
+    fn after_checks(&mut self, sim: &mut Simulator) -> Result<(), RecordError> {
         let (m, s) = (sim.model(), sim.state());
-        self.bar.inc(1);
+        self.0.inc(1);
         if s.steps % 20 == 0 {
-            self.bar.set_message(format!(
+            self.0.set_message(format!(
                 "{:.2} s, {}/{} locks",
                 s.t_s,
                 s.locks_engaged(m),
@@ -186,6 +199,58 @@ impl RunObserver for Hooks<'_> {
             ));
         }
         Ok(())
+    }
+}
+
+/// `--mcap` (issue 15): the node's topics recorded offline, one code path
+/// with the node, written to a temporary sibling and renamed onto the target
+/// once finished.
+#[cfg(feature = "ros")]
+struct McapRecorder {
+    rec: Option<crate::node::record::OfflineRecording>,
+    temp: PathBuf,
+    target: PathBuf,
+    stats: Option<crate::node::record::RecordStats>,
+}
+
+#[cfg(feature = "ros")]
+impl McapRecorder {
+    fn error(&self, e: String) -> RecordError {
+        let e = e.replace(
+            &self.temp.display().to_string(),
+            &self.target.display().to_string(),
+        );
+        RecordError::other("--mcap", &self.target, e)
+    }
+}
+
+#[cfg(feature = "ros")]
+impl Recorder for McapRecorder {
+    fn after_checks(&mut self, sim: &mut Simulator) -> Result<(), RecordError> {
+        match self.rec.as_mut() {
+            Some(r) => r.after_step(sim).map_err(|e| self.error(e)),
+            None => Ok(()),
+        }
+    }
+    fn finish(&mut self, sim: &mut Simulator, _stop: &run::Stop) -> Result<(), RecordError> {
+        let Some(r) = self.rec.take() else {
+            return Ok(());
+        };
+        let done = r.finish(sim).map_err(|e| self.error(e)).and_then(|st| {
+            std::fs::rename(&self.temp, &self.target)
+                .map(|_| st)
+                .map_err(|e| RecordError::io("--mcap", &self.target, e))
+        });
+        match done {
+            Ok(st) => {
+                self.stats = Some(st);
+                Ok(())
+            }
+            Err(e) => {
+                let _ = std::fs::remove_file(&self.temp);
+                Err(e)
+            }
+        }
     }
 }
 
@@ -209,6 +274,28 @@ pub fn run(a: SimulateArgs) -> Result<(), Failure> {
     .into_iter()
     .filter_map(|(o, p)| p.as_deref().map(|p| (o, p)))
     .collect();
+    let every = history_every(&a)?;
+    // (a directory output: created when missing, its files checked as outputs)
+    let history_files: Vec<PathBuf> = match &a.history {
+        Some(d) => {
+            output_dir("--history", d)?;
+            history::TABLES
+                .iter()
+                .map(|t| history::table_path(d, t))
+                .collect()
+        }
+        None => Vec::new(),
+    };
+    let vtk_files: Vec<PathBuf> = match &a.vtk {
+        Some(d) => {
+            output_dir("--vtk", d)?;
+            vec![vtk::pvd_path(d), d.join(vtk::frame_name(0))]
+        }
+        None => Vec::new(),
+    };
+    let mut outputs = outputs;
+    outputs.extend(history_files.iter().map(|p| ("--history", p.as_path())));
+    outputs.extend(vtk_files.iter().map(|p| ("--vtk", p.as_path())));
     check_outputs(&[a.model.as_path()], &outputs)?;
     let dt = a.dt.unwrap_or(sim.model().dt_s);
     let until = a.until.unwrap_or(sim.model().end_time_s);
@@ -251,24 +338,21 @@ pub fn run(a: SimulateArgs) -> Result<(), Failure> {
     .map_err(Failure::input)?;
     rec.record(sim.state().t_s, &sim.state().x);
     let mut csv = match &a.csv {
-        Some(p) => {
-            let mut f = AtomicFile::create(p).map_err(Failure::input)?;
-            writeln!(f.writer(), "{}", csv_header(&sim))
-                .and_then(|_| csv_row(f.writer(), &sim))
-                .map_err(|e| Failure::run(format!("cannot write {}: {e}", p.display())))?;
-            Some(f)
-        }
+        Some(p) => Some(CsvRecorder::create(p).map_err(|e| Failure::input(e.to_string()))?),
         None => None,
     };
     let dof_initial = sim.state().mechanisms;
-    // --mcap (issue 15): the node's topics recorded offline, one code path with the node.
     #[cfg(feature = "ros")]
-    // (written to a temporary sibling, renamed onto the target once finished)
     let mut mcap = match &a.mcap {
         Some(p) => {
             let temp = super::output::temp_path(p, "part");
             match crate::node::record::OfflineRecording::start(&temp, &mut sim, a.mcap_rate) {
-                Ok(r) => Some((r, temp, p.clone())),
+                Ok(r) => Some(McapRecorder {
+                    rec: Some(r),
+                    temp,
+                    target: p.clone(),
+                    stats: None,
+                }),
                 Err(e) => {
                     let _ = std::fs::remove_file(&temp);
                     return Err(Failure::input(
@@ -288,15 +372,6 @@ pub fn run(a: SimulateArgs) -> Result<(), Failure> {
         .progress_chars("=> "),
     );
     interrupt::install();
-    let mut hooks = Hooks {
-        csv: csv
-            .as_mut()
-            .map(|f| (f, a.csv.as_deref().expect("csv path"))),
-        rec: &mut rec,
-        #[cfg(feature = "ros")]
-        mcap: mcap.as_mut(),
-        bar: &bar,
-    };
     let limits = RunLimits {
         dt_s: dt,
         until_s: until,
@@ -304,38 +379,51 @@ pub fn run(a: SimulateArgs) -> Result<(), Failure> {
         max_wall_s: a.max_wall_s,
         cancel: Some(interrupt::flag()),
     };
-    let stop = run::run_loop(&mut sim, &checks, limits, &mut hooks);
+    let thin = Thinning { every };
+    let mut hist = a
+        .history
+        .as_deref()
+        .map(|d| history::HistoryRecorder::new(&sim, d, "--history", thin));
+    let mut series = a
+        .vtk
+        .as_deref()
+        .map(|d| vtk::VtkRecorder::new(&sim, d, thin));
+    let (mut plot_hook, mut progress) = (PlotHook(&mut rec), ProgressHook(&bar));
+    // (the order of the hooks: the files after each step, then the plots;
+    // the MCAP recording and the progress bar after the checks)
+    let mut recorders: Vec<&mut dyn Recorder> = Vec::new();
+    if let Some(c) = csv.as_mut() {
+        recorders.push(c);
+    }
+    if let Some(h) = hist.as_mut() {
+        recorders.push(h);
+    }
+    if let Some(v) = series.as_mut() {
+        recorders.push(v);
+    }
+    recorders.push(&mut plot_hook);
+    #[cfg(feature = "ros")]
+    if let Some(m) = mcap.as_mut() {
+        recorders.push(m);
+    }
+    recorders.push(&mut progress);
+    let stop = run::run_loop(&mut sim, &checks, limits, &mut recorders);
+    drop(recorders);
     bar.finish_and_clear();
     let wall = stop.wall_time_s;
     let (mut reason, mut message) = (stop.reason, stop.message);
     // Outputs: what was computed, whatever stopped the run. A failed write
-    // turns a run that did what was asked into an error (exit 1).
-    let mut write_errors: Vec<String> = Vec::new();
-    if let Some(f) = csv {
-        if let Err(e) = f.commit() {
-            write_errors.push(e);
-        }
-    }
+    // turns a run that did what was asked into an error (exit 1; the
+    // recorders' own are in the stop already).
+    let mut write_errors: Vec<String> = stop.record_errors.iter().map(|e| e.to_string()).collect();
     #[cfg(feature = "ros")]
-    if let Some((m, temp, target)) = mcap {
-        let shown =
-            |e: String| e.replace(&temp.display().to_string(), &target.display().to_string());
-        match m.finish(&mut sim).map_err(shown).and_then(|st| {
-            std::fs::rename(&temp, &target)
-                .map(|_| st)
-                .map_err(|e| format!("cannot write {}: {e}", target.display()))
-        }) {
-            Ok(st) => say!(
-                "mcap             {} messages, {} bytes: {}",
-                st.messages,
-                st.bytes,
-                target.display()
-            ),
-            Err(e) => {
-                let _ = std::fs::remove_file(&temp);
-                write_errors.push(e);
-            }
-        }
+    if let Some(st) = mcap.as_ref().and_then(|m| m.stats.as_ref()) {
+        say!(
+            "mcap             {} messages, {} bytes: {}",
+            st.messages,
+            st.bytes,
+            a.mcap.as_deref().expect("mcap path").display()
+        );
     }
     let (m, s) = (sim.model(), sim.state());
     let locks: Vec<(String, f64)> = s.locks.iter().map(|l| (l.name.clone(), l.time_s)).collect();
@@ -357,7 +445,7 @@ pub fn run(a: SimulateArgs) -> Result<(), Failure> {
         message = write_errors.join("; ");
     }
     let summary = run::summarize(
-        &sim,
+        &mut sim,
         &checks,
         &format!("{:?}", a.solver).to_lowercase(),
         dt,

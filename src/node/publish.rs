@@ -144,7 +144,6 @@ impl View {
             Vec::with_capacity(n),
             Vec::with_capacity(n),
         );
-        let jac = sim.jacobian();
         for j in &self.joints {
             match j {
                 MJoint::Hinge(r) => {
@@ -163,16 +162,9 @@ impl View {
                         .unwrap_or((f64::NAN, 0.0));
                     pos.push(len);
                     vel.push(rate);
-                    let force = if s.locked.get(*e).copied().unwrap_or(false) {
-                        jac.first_row_of(*e)
-                            .and_then(|r| lambda.get(r))
-                            .map(|l| -l)
-                            .unwrap_or(0.0)
-                    } else {
-                        // a compliant latch engaging: the force through it
-                        sim.latch_spring_force_n(*e).unwrap_or(0.0)
-                    };
-                    eff.push(force);
+                    // latched: -lambda of its row; a compliant latch
+                    // engaging: the force through it (as the history records)
+                    eff.push(crate::record::frame::axial_force_n(sim, lambda, *e).unwrap_or(0.0));
                 }
                 MJoint::Motor(ci) => {
                     pos.push(s.reeled_in_m(m, *ci));

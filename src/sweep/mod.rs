@@ -15,6 +15,7 @@
 // the core's modules under the paths the sweep's files use (`crate::model`, ...)
 use truss_deploy_core::{files, model, run, solver};
 
+pub mod history;
 pub mod parquet_out;
 pub mod rng;
 pub mod row;

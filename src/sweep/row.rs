@@ -1,7 +1,7 @@
 //! One row of a sweep: a sample's parameters and what its run gave, whatever
 //! happened (an invalid model, a panic, a wall limit are rows too).
 
-use crate::run::{self, NoObserver, RunLimits, RunSummary};
+use crate::run::{self, RunLimits, RunSummary};
 use crate::solver::{Options, Simulator};
 use serde::{Deserialize, Serialize};
 
@@ -236,9 +236,9 @@ pub fn run_model(
         max_wall_s,
         cancel: None,
     };
-    let stop = run::run_loop(&mut sim, &checks, limits, &mut NoObserver);
+    let stop = run::run_loop(&mut sim, &checks, limits, &mut []);
     let summary = run::summarize(
-        &sim,
+        &mut sim,
         &checks,
         "sparse",
         dt,
