@@ -15,7 +15,3 @@ pub mod model;
 pub mod record;
 pub mod run;
 pub mod solver;
-
-/// `simulate --report` (src/record/report.rs).
-#[path = "record/report.rs"]
-pub mod report;

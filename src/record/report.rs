@@ -9,7 +9,8 @@
 //! `file://` with no network. The run's data is one JSON document in a
 //! `<script type="application/json">` tag ([`ReportData`]).
 //!
-//! [`ReportBuilder`] takes one [`ReportSample`] per step and thins them to a
+//! [`ReportRecorder`] is the run loop's recorder (`Recorder`): it captures
+//! [`Frame`]s and hands them to a [`ReportBuilder`], which thins them to a
 //! frame budget (default [`DEFAULT_FRAME_BUDGET`]): frames are spaced evenly
 //! in a measure that adds the simulated time (as a fraction of the run) and
 //! the largest joint displacement (as a fraction of the truss's size), so a
@@ -18,9 +19,14 @@
 //! peak in the plot. Positions are rounded to 10 µm, forces and energies to
 //! 4 significant digits.
 
-use crate::solver::{LockEvent, SolverStats};
+use super::{Frame, FrameLayout, RecordError, Recorder};
+use crate::files::AtomicFile;
+use crate::run::Stop;
+use crate::solver::model::Model;
+use crate::solver::{LockEvent, Simulator, SolverStats};
 use serde::Serialize;
 use std::fmt;
+use std::io::Write;
 use std::path::{Path, PathBuf};
 
 /// Frames kept at most in a report (the first and the last step among them).
@@ -46,7 +52,10 @@ pub enum ReportError {
     /// The data did not serialize.
     Json(String),
     /// Writing the file failed (the path and the system's reason).
-    Write { path: PathBuf, reason: String },
+    Write {
+        path: PathBuf,
+        source: std::io::Error,
+    },
 }
 
 impl fmt::Display for ReportError {
@@ -62,23 +71,32 @@ impl fmt::Display for ReportError {
             ),
             ReportError::Empty => write!(f, "--report: no frame was recorded"),
             ReportError::Json(e) => write!(f, "--report: the data did not serialize: {e}"),
-            ReportError::Write { path, reason } => {
-                write!(f, "cannot write --report {}: {reason}", path.display())
+            ReportError::Write { path, source } => {
+                write!(f, "cannot write --report {}: {source}", path.display())
             }
         }
     }
 }
 
-impl std::error::Error for ReportError {}
+impl std::error::Error for ReportError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        match self {
+            ReportError::Write { source, .. } => Some(source),
+            _ => None,
+        }
+    }
+}
 
 /// What a report draws that does not change during the run.
 #[derive(Clone, Debug, Default)]
 pub struct ReportLayout {
     pub model: String,
     pub joints: Vec<String>,
-    /// Each member's joints (indices into `joints`) and kind (e.g. `bar`, `sleeve`).
-    pub members: Vec<[usize; 2]>,
-    pub member_kinds: Vec<String>,
+    /// The members drawn: every element's members (`Constraint::members`).
+    pub members: Vec<ReportMember>,
+    /// Axial forces per frame (the members whose force is recorded: bars and
+    /// sleeves, `FrameLayout::members`).
+    pub forces: usize,
     /// Each latch's name and the two joints its sleeve spans (its marker
     /// sits halfway between them).
     pub latches: Vec<ReportLatch>,
@@ -86,6 +104,15 @@ pub struct ReportLayout {
     /// at its far end), of the energy plot (the energy terms, J).
     pub cable_series: Vec<String>,
     pub energy_series: Vec<String>,
+}
+
+/// A member drawn: its joints, its element's kind, and where its axial
+/// force is among a frame's forces (None: not recorded, e.g. a scissor's rods).
+#[derive(Clone, Debug, Serialize)]
+pub struct ReportMember {
+    pub joints: [usize; 2],
+    pub kind: String,
+    pub force: Option<usize>,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -99,9 +126,9 @@ pub struct ReportSample<'a> {
     pub t_s: f64,
     /// Joint positions, x y z per joint (m).
     pub x_m: &'a [f64],
-    /// Axial force per member (N, tension positive); empty when not known.
+    /// Axial forces (N, tension positive; `ReportLayout::forces` of them).
     pub axial_n: &'a [f64],
-    /// Per latch: 0 open, 1 engaging (a compliant latch's transient), 2 latched.
+    /// Per latch: 0 open, 1 latched, 2 engaging (`LatchState::code`).
     pub latch_state: &'a [u8],
     /// Per latch, the force through it (N).
     pub latch_force_n: &'a [f64],
@@ -130,9 +157,9 @@ pub struct ReportFrames {
     pub t_s: Vec<f64>,
     /// Joint positions (m), x y z per joint.
     pub x_m: Vec<Vec<f32>>,
-    /// Axial force per member (N); empty when not recorded.
+    /// Axial forces (N), as `ReportMember::force` indexes them.
     pub axial_n: Vec<Vec<f32>>,
-    /// Per latch: 0 open, 1 engaging, 2 latched.
+    /// Per latch: 0 open, 1 latched, 2 engaging (`LatchState::code`).
     pub latch_state: Vec<Vec<u8>>,
 }
 
@@ -142,8 +169,7 @@ pub struct ReportData {
     pub title: String,
     pub model: String,
     pub joints: Vec<String>,
-    pub members: Vec<[usize; 2]>,
-    pub member_kinds: Vec<String>,
+    pub members: Vec<ReportMember>,
     pub latches: Vec<ReportLatch>,
     pub frames: ReportFrames,
     pub series: Vec<ReportSeries>,
@@ -180,7 +206,10 @@ struct Kept {
     energy: Vec<f32>,
 }
 
-/// Takes the run's steps and keeps at most a budget of frames of them.
+/// Takes a run's steps and keeps at most a budget of frames of them: per
+/// step [`ReportBuilder::advance`] (is this step due?), and
+/// [`ReportBuilder::hold_latch_forces`]; [`ReportBuilder::keep`] the steps
+/// that are due and the last one.
 pub struct ReportBuilder {
     layout: ReportLayout,
     budget: usize,
@@ -192,9 +221,8 @@ pub struct ReportBuilder {
     last_x: Vec<f64>,
     peak: Vec<f64>,
     kept: Vec<Kept>,
-    /// The latest step when it is not kept (it becomes the last frame).
-    tail: Option<Kept>,
     steps: u64,
+    last_kept_step: Option<u64>,
 }
 
 /// `v` rounded to `digits` significant digits.
@@ -223,6 +251,15 @@ fn check(what: &'static str, expected: usize, got: usize) -> Result<(), ReportEr
     }
 }
 
+/// The larger in magnitude of `a` and `b`.
+fn larger(a: f64, b: f64) -> f64 {
+    if b.abs() > a.abs() {
+        b
+    } else {
+        a
+    }
+}
+
 impl ReportBuilder {
     /// A builder for a run of `run_s` simulated seconds at most (the
     /// thinning's time scale), keeping at most `budget` frames (at least 2).
@@ -239,8 +276,8 @@ impl ReportBuilder {
             last_t: None,
             last_x: Vec::new(),
             kept: Vec::new(),
-            tail: None,
             steps: 0,
+            last_kept_step: None,
         }
     }
 
@@ -248,27 +285,24 @@ impl ReportBuilder {
         &self.layout
     }
 
-    /// Frames kept so far (the latest step counted where not kept).
+    /// Frames kept so far.
     pub fn frames(&self) -> usize {
-        self.kept.len() + usize::from(self.tail.is_some())
+        self.kept.len()
     }
 
-    /// Records one step.
-    pub fn push(&mut self, s: &ReportSample) -> Result<(), ReportError> {
-        let l = &self.layout;
-        check("coordinates", 3 * l.joints.len(), s.x_m.len())?;
-        if !s.axial_n.is_empty() {
-            check("member forces", l.members.len(), s.axial_n.len())?;
-        }
-        check("latch states", l.latches.len(), s.latch_state.len())?;
-        check("latch forces", l.latches.len(), s.latch_force_n.len())?;
-        check("cable values", l.cable_series.len(), s.cable_n.len())?;
-        check("energy terms", l.energy_series.len(), s.energy_j.len())?;
+    /// Whether the last step advanced was kept.
+    pub fn kept_last(&self) -> bool {
+        self.steps > 0 && self.last_kept_step == Some(self.steps)
+    }
+
+    /// Takes the state of the next step (time, joint positions) into the
+    /// thinning measure; true when it is due to be kept.
+    pub fn advance(&mut self, t_s: f64, x_m: &[f64]) -> bool {
         self.steps += 1;
         match self.last_t {
             None => {
                 let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
-                for p in s.x_m.chunks_exact(3) {
+                for p in x_m.chunks_exact(3) {
                     for k in 0..3 {
                         lo[k] = lo[k].min(p[k]);
                         hi[k] = hi[k].max(p[k]);
@@ -278,8 +312,7 @@ impl ReportBuilder {
                 self.size_m = if d.is_finite() && d > 0.0 { d } else { 1.0 };
             }
             Some(t) => {
-                let moved = s
-                    .x_m
+                let moved = x_m
                     .chunks_exact(3)
                     .zip(self.last_x.chunks_exact(3))
                     .map(|(a, b)| {
@@ -287,43 +320,55 @@ impl ReportBuilder {
                             .sqrt()
                     })
                     .fold(0.0, f64::max);
-                let inc = (s.t_s - t).abs() / self.run_s + moved / self.size_m;
+                let inc = (t_s - t).abs() / self.run_s + moved / self.size_m;
                 if inc.is_finite() {
                     self.at += inc;
                 }
             }
         }
-        self.last_t = Some(s.t_s);
+        self.last_t = Some(t_s);
         self.last_x.clear();
-        self.last_x.extend_from_slice(s.x_m);
-        for (p, &f) in self.peak.iter_mut().zip(s.latch_force_n) {
-            if f.abs() > p.abs() {
-                *p = f;
-            }
+        self.last_x.extend_from_slice(x_m);
+        self.kept
+            .last()
+            .is_none_or(|k| self.at - k.at >= self.spacing)
+    }
+
+    /// Per latch, a force of this step (N): the next frame kept shows the
+    /// largest in magnitude since the frame before.
+    pub fn hold_latch_forces(&mut self, force_n: &[f64]) {
+        for (p, &f) in self.peak.iter_mut().zip(force_n) {
+            *p = larger(*p, f);
         }
-        let frame = Kept {
-            t_s: s.t_s,
+    }
+
+    /// Keeps the step last advanced as a frame.
+    pub fn keep(&mut self, s: &ReportSample) -> Result<(), ReportError> {
+        let l = &self.layout;
+        check("coordinates", 3 * l.joints.len(), s.x_m.len())?;
+        check("member forces", l.forces, s.axial_n.len())?;
+        check("latch states", l.latches.len(), s.latch_state.len())?;
+        check("latch forces", l.latches.len(), s.latch_force_n.len())?;
+        check("cable values", l.cable_series.len(), s.cable_n.len())?;
+        check("energy terms", l.energy_series.len(), s.energy_j.len())?;
+        if self.kept_last() {
+            return Ok(());
+        }
+        let latches = l.latches.len();
+        self.hold_latch_forces(s.latch_force_n);
+        self.kept.push(Kept {
+            t_s: (s.t_s * 1e9).round() / 1e9,
             at: self.at,
             x: s.x_m.iter().map(|&v| pos(v)).collect(),
             axial: s.axial_n.iter().map(|&v| sig(v, 4)).collect(),
             latch_state: s.latch_state.to_vec(),
-            latch_peak: self.peak.clone(),
+            latch_peak: std::mem::replace(&mut self.peak, vec![0.0; latches]),
             cable: s.cable_n.iter().map(|&v| sig(v, 4)).collect(),
             energy: s.energy_j.iter().map(|&v| sig(v, 4)).collect(),
-        };
-        let due = self
-            .kept
-            .last()
-            .is_none_or(|k| self.at - k.at >= self.spacing);
-        if due {
-            self.kept.push(frame);
-            self.tail = None;
-            self.peak.iter_mut().for_each(|p| *p = 0.0);
-            if self.kept.len() >= self.budget {
-                self.thin();
-            }
-        } else {
-            self.tail = Some(frame);
+        });
+        self.last_kept_step = Some(self.steps);
+        if self.kept.len() >= self.budget {
+            self.thin();
         }
         Ok(())
     }
@@ -332,40 +377,35 @@ impl ReportBuilder {
     /// the first and the last; a dropped frame's latch peaks pass to the
     /// next frame kept.
     fn thin(&mut self) {
-        self.spacing *= 2.0;
-        let old = std::mem::take(&mut self.kept);
-        let n = old.len();
-        let mut carry: Option<Vec<f64>> = None;
-        for (i, mut k) in old.into_iter().enumerate() {
-            if let Some(c) = carry.take() {
-                for (p, q) in k.latch_peak.iter_mut().zip(c) {
-                    if q.abs() > p.abs() {
-                        *p = q;
+        while self.kept.len() >= self.budget {
+            self.spacing *= 2.0;
+            let old = std::mem::take(&mut self.kept);
+            let n = old.len();
+            let mut carry: Option<Vec<f64>> = None;
+            for (i, mut k) in old.into_iter().enumerate() {
+                if let Some(c) = carry.take() {
+                    for (p, q) in k.latch_peak.iter_mut().zip(c) {
+                        *p = larger(*p, q);
                     }
                 }
-            }
-            let keep = i == 0
-                || i + 1 == n
-                || self
-                    .kept
-                    .last()
-                    .is_none_or(|last| k.at - last.at >= self.spacing);
-            if keep {
-                self.kept.push(k);
-            } else {
-                carry = Some(k.latch_peak);
+                let keep = i == 0
+                    || i + 1 == n
+                    || self
+                        .kept
+                        .last()
+                        .is_none_or(|last| k.at - last.at >= self.spacing);
+                if keep {
+                    self.kept.push(k);
+                } else {
+                    carry = Some(k.latch_peak);
+                }
             }
         }
     }
 
-    /// The report's data, the run ended as `end` says.
-    pub fn finish(mut self, end: &ReportEnd) -> Result<ReportData, ReportError> {
-        if let Some(t) = self.tail.take() {
-            self.kept.push(t);
-        }
-        if self.kept.len() > self.budget {
-            self.thin();
-        }
+    /// The report's data, the run ended as `end` says. (Keep the last step
+    /// first, where it was not kept.)
+    pub fn finish(self, end: &ReportEnd) -> Result<ReportData, ReportError> {
         if self.kept.is_empty() {
             return Err(ReportError::Empty);
         }
@@ -387,28 +427,26 @@ impl ReportBuilder {
             });
         }
         for (i, name) in l.energy_series.iter().enumerate() {
-            series.push(ReportSeries {
-                group: "energy",
-                name: name.clone(),
-                values: kept.iter().map(|k| k.energy[i]).collect(),
-            });
+            let values: Vec<f32> = kept.iter().map(|k| k.energy[i]).collect();
+            // (a term that stays 0 in this run: not drawn)
+            if values.iter().any(|&v| v != 0.0) {
+                series.push(ReportSeries {
+                    group: "energy",
+                    name: name.clone(),
+                    values,
+                });
+            }
         }
         let frames = ReportFrames {
             t_s: kept.iter().map(|k| k.t_s).collect(),
-            axial_n: if kept.iter().all(|k| k.axial.len() == l.members.len())
-                && !l.members.is_empty()
-            {
-                kept.iter().map(|k| k.axial.clone()).collect()
-            } else {
-                Vec::new()
-            },
+            axial_n: kept.iter().map(|k| k.axial.clone()).collect(),
             latch_state: kept.iter().map(|k| k.latch_state.clone()).collect(),
             x_m: kept.into_iter().map(|k| k.x).collect(),
         };
         Ok(ReportData {
             title: format!("{}: deployment report", l.model),
             thinning: format!(
-                "{} frames of {} steps, spaced evenly in simulated time plus joint motion; \
+                "{} frames of {} states, spaced evenly in simulated time plus joint motion; \
                  latch forces are the peak over each frame's steps",
                 frames.t_s.len(),
                 self.steps
@@ -416,7 +454,6 @@ impl ReportBuilder {
             model: l.model,
             joints: l.joints,
             members: l.members,
-            member_kinds: l.member_kinds,
             latches: l.latches,
             frames,
             series,
@@ -428,7 +465,7 @@ impl ReportBuilder {
                 },
                 PlotGroup {
                     group: "latch",
-                    title: "latch forces (peak over each frame)",
+                    title: "latch forces (peak over each frame; tension positive)",
                     unit: "N",
                 },
                 PlotGroup {
@@ -498,17 +535,201 @@ pub fn render_html(data: &ReportData) -> Result<String, ReportError> {
     Ok(html.replacen("__DATA__", &json, 1))
 }
 
-/// Writes the report of `data` to `path` atomically.
+/// Writes the report of `data` to `path` atomically; its size (bytes).
 pub fn write_report(path: &Path, data: &ReportData) -> Result<u64, ReportError> {
     let html = render_html(data)?;
-    crate::files::write_atomic(path, html.as_bytes()).map_err(|e| ReportError::Write {
+    let io = |source| ReportError::Write {
         path: path.to_path_buf(),
-        reason: e
-            .strip_prefix(&format!("cannot write {}: ", path.display()))
-            .unwrap_or(&e)
-            .to_string(),
-    })?;
+        source,
+    };
+    let mut f = AtomicFile::open(path).map_err(io)?;
+    f.writer().write_all(html.as_bytes()).map_err(io)?;
+    f.commit_io().map_err(io)?;
     Ok(html.len() as u64)
+}
+
+/// The report's layout of a model: every element's members drawn, the
+/// forces of `FrameLayout::members`, each latch's marker on its sleeve, the
+/// cable plot's two series per cable (at the motor and at the far end), the
+/// energy terms.
+pub fn layout_of(m: &Model, frames: &FrameLayout) -> ReportLayout {
+    let mut members = Vec::new();
+    for (e, el) in m.elements.iter().enumerate() {
+        let js = el.joints();
+        let force = frames.members.iter().position(|mb| mb.element == e);
+        for &[a, b] in el.members() {
+            members.push(ReportMember {
+                joints: [js[a], js[b]],
+                kind: el.kind().to_string(),
+                force,
+            });
+        }
+    }
+    let latches = frames
+        .latches
+        .iter()
+        .map(|l| {
+            let js = m.elements[l.element].joints();
+            let joints = match frames.members.iter().find(|mb| mb.element == l.element) {
+                Some(mb) => mb.joints,
+                None => [js[0], js[js.len().saturating_sub(1)]],
+            };
+            ReportLatch {
+                name: l.name.clone(),
+                joints,
+            }
+        })
+        .collect();
+    ReportLayout {
+        model: m.name.clone(),
+        joints: frames.joints.clone(),
+        members,
+        forces: frames.members.len(),
+        latches,
+        cable_series: frames
+            .cables
+            .iter()
+            .flat_map(|c| {
+                [
+                    format!("{} at the motor", c.name),
+                    format!("{} at its end", c.name),
+                ]
+            })
+            .collect(),
+        energy_series: ENERGY_TERMS.iter().map(|(n, _)| n.to_string()).collect(),
+    }
+}
+
+/// The energy plot's terms (J): name, value in a frame.
+const ENERGY_TERMS: [(&str, fn(&Frame) -> f64); 12] = [
+    ("kinetic", |f| f.kinetic_energy_j),
+    ("motor work", |f| f.energy.motor_work_j),
+    ("cable work", |f| f.energy.cable_work_j),
+    ("pulley friction loss", |f| f.energy.friction_loss_j),
+    ("damping loss", |f| f.energy.damping_loss_j),
+    ("latch impact loss", |f| f.energy.lock_loss_j),
+    ("latch damper loss", |f| f.energy.latch_damping_loss_j),
+    ("latch spring energy", |f| f.energy.latch_spring_energy_j),
+    ("element spring energy", |f| {
+        f.energy.element_spring_energy_j
+    }),
+    ("member strain energy", |f| f.energy.member_strain_energy_j),
+    ("member damper loss", |f| f.energy.member_damping_loss_j),
+    ("gravity work", |f| f.energy.gravity_work_j),
+];
+
+/// `simulate --report FILE.html`: a [`Recorder`] that keeps the run's
+/// frames (`Frame::capture` at the steps the thinning keeps, the latches'
+/// spring forces at every step for their peaks) and writes the report when
+/// the run ends, whatever ended it.
+pub struct ReportRecorder {
+    path: PathBuf,
+    frames: FrameLayout,
+    builder: Option<ReportBuilder>,
+    force: Vec<f64>,
+    /// Frames and bytes written (after `finish`).
+    pub written: Option<(usize, u64)>,
+}
+
+const OUTPUT: &str = "--report";
+
+impl ReportRecorder {
+    /// A recorder of `sim`'s run, `run_s` simulated seconds at most (the
+    /// thinning's time scale), keeping at most `budget` frames.
+    pub fn new(sim: &Simulator, path: &Path, run_s: f64, budget: usize) -> ReportRecorder {
+        let frames = FrameLayout::new(sim.model());
+        let layout = layout_of(sim.model(), &frames);
+        ReportRecorder {
+            path: path.to_path_buf(),
+            force: vec![0.0; frames.latches.len()],
+            frames,
+            builder: Some(ReportBuilder::new(layout, budget, run_s)),
+            written: None,
+        }
+    }
+
+    fn error(&self, e: ReportError) -> RecordError {
+        match e {
+            ReportError::Write { path, source } => RecordError::io(OUTPUT, &path, source),
+            e => RecordError::other(OUTPUT, &self.path, e.to_string()),
+        }
+    }
+
+    fn keep(&mut self, sim: &mut Simulator) -> Result<(), RecordError> {
+        let f = Frame::capture(&self.frames, sim);
+        let cable: Vec<f64> = f
+            .cable_tension_n
+            .iter()
+            .flat_map(|c| {
+                [
+                    c.first().copied().unwrap_or(0.0),
+                    c.last().copied().unwrap_or(0.0),
+                ]
+            })
+            .collect();
+        let energy: Vec<f64> = ENERGY_TERMS.iter().map(|(_, v)| v(&f)).collect();
+        let state: Vec<u8> = f.latch_state.iter().map(|s| s.code() as u8).collect();
+        let sample = ReportSample {
+            t_s: f.t_s,
+            x_m: &f.x,
+            axial_n: &f.member_force_n,
+            latch_state: &state,
+            latch_force_n: &f.latch_force_n,
+            cable_n: &cable,
+            energy_j: &energy,
+        };
+        let Some(b) = self.builder.as_mut() else {
+            return Ok(());
+        };
+        let kept = b.keep(&sample);
+        kept.map_err(|e| self.error(e))
+    }
+}
+
+impl Recorder for ReportRecorder {
+    fn start(&mut self, sim: &mut Simulator) -> Result<(), RecordError> {
+        let s = sim.state();
+        if let Some(b) = self.builder.as_mut() {
+            b.advance(s.t_s, &s.x);
+        }
+        self.keep(sim)
+    }
+
+    fn after_step(&mut self, sim: &mut Simulator) -> Result<(), RecordError> {
+        let Some(b) = self.builder.as_mut() else {
+            return Ok(());
+        };
+        // (a compliant latch's force between the frames: its spring-damper's)
+        for (f, l) in self.force.iter_mut().zip(&self.frames.latches) {
+            *f = sim.latch_spring_force_n(l.element).unwrap_or(0.0);
+        }
+        b.hold_latch_forces(&self.force);
+        let s = sim.state();
+        if b.advance(s.t_s, &s.x) {
+            self.keep(sim)?;
+        }
+        Ok(())
+    }
+
+    fn finish(&mut self, sim: &mut Simulator, stop: &Stop) -> Result<(), RecordError> {
+        if self.builder.as_ref().is_some_and(|b| !b.kept_last()) {
+            self.keep(sim)?;
+        }
+        let Some(b) = self.builder.take() else {
+            return Ok(());
+        };
+        let data = b
+            .finish(&ReportEnd {
+                locks: &sim.state().locks,
+                stop_reason: stop.reason.label(),
+                stop_message: &stop.message,
+                solver_stats: sim.solver_stats(),
+            })
+            .map_err(|e| self.error(e))?;
+        let bytes = write_report(&self.path, &data).map_err(|e| self.error(e))?;
+        self.written = Some((data.frames.t_s.len(), bytes));
+        Ok(())
+    }
 }
 
 #[cfg(test)]
@@ -519,14 +740,25 @@ mod tests {
         ReportLayout {
             model: "two <bars>".into(),
             joints: vec!["a".into(), "b".into(), "c".into()],
-            members: vec![[0, 1], [1, 2]],
-            member_kinds: vec!["bar".into(), "sleeve".into()],
+            members: vec![
+                ReportMember {
+                    joints: [0, 1],
+                    kind: "bar".into(),
+                    force: Some(0),
+                },
+                ReportMember {
+                    joints: [1, 2],
+                    kind: "sleeve".into(),
+                    force: None,
+                },
+            ],
+            forces: 1,
             latches: vec![ReportLatch {
                 name: "S1".into(),
                 joints: [1, 2],
             }],
             cable_series: vec!["drive".into()],
-            energy_series: vec!["kinetic_j".into()],
+            energy_series: vec!["kinetic".into(), "none".into()],
         }
     }
 
@@ -545,18 +777,20 @@ mod tests {
                 0.0,
                 0.0,
             ];
-            // a one-step latch spike at step 337
-            let f = if i == 337 { -50.0 } else { 0.0 };
-            b.push(&ReportSample {
-                t_s: t,
-                x_m: &x,
-                axial_n: &[1.0, -2.0],
-                latch_state: &[u8::from(i >= 337) * 2],
-                latch_force_n: &[f],
-                cable_n: &[15.0],
-                energy_j: &[0.5],
-            })
-            .unwrap();
+            // a one-step latch spike at step 337, held but not kept
+            b.hold_latch_forces(&[if i == 337 { -50.0 } else { 0.0 }]);
+            if b.advance(t, &x) || i + 1 == steps {
+                b.keep(&ReportSample {
+                    t_s: t,
+                    x_m: &x,
+                    axial_n: &[1.0],
+                    latch_state: &[u8::from(i >= 337)],
+                    latch_force_n: &[0.0],
+                    cable_n: &[15.0],
+                    energy_j: &[0.5, 0.0],
+                })
+                .unwrap();
+            }
         }
         b.finish(&ReportEnd {
             locks: &[],
@@ -577,6 +811,8 @@ mod tests {
         let latch = d.series.iter().find(|s| s.group == "latch").unwrap();
         assert!(latch.values.contains(&-50.0), "the spike is kept");
         assert!(d.frames.t_s.windows(2).all(|w| w[0] < w[1]));
+        // an energy term that stays 0 is not drawn
+        assert_eq!(d.series.iter().filter(|s| s.group == "energy").count(), 1);
         // a short run keeps every step
         assert_eq!(run(50, 400).frames.t_s.len(), 50);
     }
@@ -597,17 +833,76 @@ mod tests {
     #[test]
     fn a_wrong_shape_is_an_error_not_a_panic() {
         let mut b = ReportBuilder::new(layout(), 10, 1.0);
+        b.advance(0.0, &[0.0; 6]);
         let e = b
-            .push(&ReportSample {
+            .keep(&ReportSample {
                 t_s: 0.0,
                 x_m: &[0.0; 6],
-                axial_n: &[],
+                axial_n: &[0.0],
                 latch_state: &[0],
                 latch_force_n: &[0.0],
                 cable_n: &[0.0],
-                energy_j: &[0.0],
+                energy_j: &[0.0, 0.0],
             })
             .unwrap_err();
         assert!(e.to_string().contains("6 coordinates"), "{e}");
+    }
+
+    /// The bundled mast's report: every member drawn, the sleeves' forces
+    /// recorded, every latch in it, latched at the end.
+    #[test]
+    fn the_mast_report_records_its_latches() {
+        let path = format!(
+            "{}/../../models/pantograph_mast.toml",
+            env!("CARGO_MANIFEST_DIR")
+        );
+        let lm = crate::model::load(Path::new(&path)).expect("bundled model");
+        let mut sim = Simulator::new(lm.model, crate::solver::Options::default()).unwrap();
+        let out = std::env::temp_dir().join(format!("report_mast_{}.html", std::process::id()));
+        let mut rec = ReportRecorder::new(&sim, &out, 40.0, 50);
+        let limits = crate::run::RunLimits {
+            dt_s: 0.05,
+            until_s: 40.0,
+            until_asked: false,
+            max_wall_s: None,
+            cancel: None,
+        };
+        let stop = crate::run::run_loop(&mut sim, &lm.checks, limits, &mut [&mut rec]);
+        assert!(stop.record_errors.is_empty(), "{:?}", stop.record_errors);
+        let (frames, bytes) = rec.written.expect("written");
+        assert!((10..=50).contains(&frames), "{frames} frames");
+        let html = std::fs::read_to_string(&out).unwrap();
+        assert_eq!(html.len() as u64, bytes);
+        let _ = std::fs::remove_file(&out);
+        for l in &sim.state().locks {
+            assert!(html.contains(&format!("\"name\":\"{}\"", l.name)));
+        }
+        let layout = rec.builder.is_none();
+        assert!(layout, "finished");
+    }
+
+    #[test]
+    fn an_unwritable_path_is_a_record_error_naming_it() {
+        let path = format!(
+            "{}/../../models/pantograph_mast.toml",
+            env!("CARGO_MANIFEST_DIR")
+        );
+        let lm = crate::model::load(Path::new(&path)).expect("bundled model");
+        let mut sim = Simulator::new(lm.model, crate::solver::Options::default()).unwrap();
+        let out = Path::new("/nonexistent-dir/r.html");
+        let mut rec = ReportRecorder::new(&sim, out, 1.0, 50);
+        rec.start(&mut sim).unwrap();
+        let stop = Stop {
+            reason: crate::run::StopReason::Until,
+            message: String::new(),
+            wall_time_s: 0.0,
+            record_errors: Vec::new(),
+        };
+        let e = rec.finish(&mut sim, &stop).unwrap_err();
+        let shown = e.to_string();
+        assert!(
+            shown.starts_with("cannot write --report /nonexistent-dir/r.html: "),
+            "{shown}"
+        );
     }
 }
