@@ -627,6 +627,8 @@ pub struct ReportRecorder {
     frames: FrameLayout,
     builder: Option<ReportBuilder>,
     force: Vec<f64>,
+    /// Per latch, the peak force of its lock event last seen (N).
+    peak_seen: Vec<Option<f64>>,
     /// Frames and bytes written (after `finish`).
     pub written: Option<(usize, u64)>,
 }
@@ -642,6 +644,7 @@ impl ReportRecorder {
         ReportRecorder {
             path: path.to_path_buf(),
             force: vec![0.0; frames.latches.len()],
+            peak_seen: vec![None; frames.latches.len()],
             frames,
             builder: Some(ReportBuilder::new(layout, budget, run_s)),
             written: None,
@@ -699,9 +702,28 @@ impl Recorder for ReportRecorder {
         let Some(b) = self.builder.as_mut() else {
             return Ok(());
         };
-        // (a compliant latch's force between the frames: its spring-damper's)
-        for (f, l) in self.force.iter_mut().zip(&self.frames.latches) {
-            *f = sim.latch_spring_force_n(l.element).unwrap_or(0.0);
+        // (a compliant latch's force between the frames: its spring-damper's
+        // at the step's end, and its peak inside the step where the solver
+        // located one, signed as the force)
+        let s = sim.state();
+        for ((f, l), seen) in self
+            .force
+            .iter_mut()
+            .zip(&self.frames.latches)
+            .zip(&mut self.peak_seen)
+        {
+            let now = sim.latch_spring_force_n(l.element).unwrap_or(0.0);
+            let sign = if now != 0.0 { now } else { *f };
+            *f = now;
+            let peak = s
+                .locks
+                .iter()
+                .find(|ev| ev.element == l.element)
+                .and_then(|ev| ev.peak_force_n);
+            if let Some(p) = peak.filter(|p| Some(*p) != *seen) {
+                *seen = Some(p);
+                *f = larger(now, if sign < 0.0 { -p } else { p });
+            }
         }
         b.hold_latch_forces(&self.force);
         let s = sim.state();
