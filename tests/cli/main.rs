@@ -7,6 +7,7 @@ mod docs;
 mod malformed_corpus;
 mod model_errors;
 mod motor_speed;
+mod report;
 mod run_outcomes;
 mod sweep;
 

@@ -21,6 +21,7 @@ import json
 import os
 import pathlib
 import sys
+import time
 
 FLAGS = [
     "--use-angle=swiftshader",
@@ -81,12 +82,14 @@ def check(browser, report, summary, failures, shot=None):
 
     page.route("**/*", route)
     page.goto(url)
-    try:
-        page.wait_for_selector("body[data-ready='1']", timeout=60_000)
-    except Exception as e:  # noqa: BLE001 - reported as a failure
-        fail(f"the page did not get ready: {e}; {errors}")
-        page.close()
-        return
+    # ready, or an error first (no waiting out the timeout on a broken page)
+    deadline = time.monotonic() + 60
+    while not page.evaluate("document.body !== null && document.body.dataset.ready === '1'"):
+        if errors or time.monotonic() > deadline:
+            fail(f"the page did not get ready: {'; '.join(errors[:5]) or 'timed out after 60 s'}")
+            page.close()
+            return
+        page.wait_for_timeout(100)
     others = [u for u in requests if u != url]
     if others:
         fail(f"requests other than the file itself: {others[:5]}")
