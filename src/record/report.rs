@@ -12,12 +12,12 @@
 //! [`ReportRecorder`] is the run loop's recorder (`Recorder`): it captures
 //! [`Frame`]s and hands them to a [`ReportBuilder`], which thins them to a
 //! frame budget (default [`DEFAULT_FRAME_BUDGET`]): frames are spaced evenly
-//! in a measure that adds the simulated time (as a fraction of the run) and
-//! the largest joint displacement (as a fraction of the truss's size), so a
-//! slow creep and a fast snap both get frames. Latch forces are peak-held
-//! over the steps a frame stands for, so a short latch transient keeps its
-//! peak in the plot. Positions are rounded to 10 µm, forces and energies to
-//! 4 significant digits.
+//! in a measure that adds the simulated time (as a fraction of the run), the
+//! largest joint displacement (as a fraction of the truss's size) and the
+//! latches' changes of state, so a slow creep, a fast snap and each latching
+//! get frames. Latch forces are peak-held over the steps a frame stands for,
+//! so a short latch transient keeps its peak in the plot. Positions are
+//! rounded to 10 µm, forces and energies to 4 significant digits.
 
 use super::{Frame, FrameLayout, RecordError, Recorder};
 use crate::files::AtomicFile;
@@ -295,9 +295,10 @@ impl ReportBuilder {
         self.steps > 0 && self.last_kept_step == Some(self.steps)
     }
 
-    /// Takes the state of the next step (time, joint positions) into the
-    /// thinning measure; true when it is due to be kept.
-    pub fn advance(&mut self, t_s: f64, x_m: &[f64]) -> bool {
+    /// Takes the state of the next step (time, joint positions, how many
+    /// latches changed state in it) into the thinning measure; true when it
+    /// is due to be kept.
+    pub fn advance(&mut self, t_s: f64, x_m: &[f64], latch_changes: usize) -> bool {
         self.steps += 1;
         match self.last_t {
             None => {
@@ -320,7 +321,12 @@ impl ReportBuilder {
                             .sqrt()
                     })
                     .fold(0.0, f64::max);
-                let inc = (t_s - t).abs() / self.run_s + moved / self.size_m;
+                // (every latch engaging and latching weighs, all together,
+                // as much as the run's time: the latching gets frames)
+                let latches = self.layout.latches.len().max(1) as f64;
+                let inc = (t_s - t).abs() / self.run_s
+                    + moved / self.size_m
+                    + latch_changes as f64 / (2.0 * latches);
                 if inc.is_finite() {
                     self.at += inc;
                 }
@@ -627,6 +633,8 @@ pub struct ReportRecorder {
     frames: FrameLayout,
     builder: Option<ReportBuilder>,
     force: Vec<f64>,
+    /// Per latch, its state at the step before (`LatchState::code`).
+    state: Vec<u8>,
     /// Per latch, the peak force of its lock event last seen (N).
     peak_seen: Vec<Option<f64>>,
     /// Frames and bytes written (after `finish`).
@@ -634,6 +642,19 @@ pub struct ReportRecorder {
 }
 
 const OUTPUT: &str = "--report";
+
+/// A latch's state as `Frame::capture` finds it (`LatchState::code`: 0 open,
+/// 1 latched, 2 engaging).
+fn latch_code(sim: &Simulator, element: usize) -> u8 {
+    let s = sim.state();
+    if s.transients.iter().any(|t| t.element == element) {
+        2
+    } else if s.locked.get(element).copied().unwrap_or(false) {
+        1
+    } else {
+        0
+    }
+}
 
 impl ReportRecorder {
     /// A recorder of `sim`'s run, `run_s` simulated seconds at most (the
@@ -645,6 +666,11 @@ impl ReportRecorder {
             path: path.to_path_buf(),
             force: vec![0.0; frames.latches.len()],
             peak_seen: vec![None; frames.latches.len()],
+            state: frames
+                .latches
+                .iter()
+                .map(|l| latch_code(sim, l.element))
+                .collect(),
             frames,
             builder: Some(ReportBuilder::new(layout, budget, run_s)),
             written: None,
@@ -693,7 +719,7 @@ impl Recorder for ReportRecorder {
     fn start(&mut self, sim: &mut Simulator) -> Result<(), RecordError> {
         let s = sim.state();
         if let Some(b) = self.builder.as_mut() {
-            b.advance(s.t_s, &s.x);
+            b.advance(s.t_s, &s.x, 0);
         }
         self.keep(sim)
     }
@@ -727,7 +753,14 @@ impl Recorder for ReportRecorder {
         }
         b.hold_latch_forces(&self.force);
         let s = sim.state();
-        if b.advance(s.t_s, &s.x) {
+        let mut changes = 0;
+        for (l, st) in self.frames.latches.iter().zip(&mut self.state) {
+            let now = latch_code(sim, l.element);
+            if std::mem::replace(st, now) != now {
+                changes += 1;
+            }
+        }
+        if b.advance(s.t_s, &s.x, changes) {
             self.keep(sim)?;
         }
         Ok(())
@@ -801,7 +834,7 @@ mod tests {
             ];
             // a one-step latch spike at step 337, held but not kept
             b.hold_latch_forces(&[if i == 337 { -50.0 } else { 0.0 }]);
-            if b.advance(t, &x) || i + 1 == steps {
+            if b.advance(t, &x, 0) || i + 1 == steps {
                 b.keep(&ReportSample {
                     t_s: t,
                     x_m: &x,
@@ -855,7 +888,7 @@ mod tests {
     #[test]
     fn a_wrong_shape_is_an_error_not_a_panic() {
         let mut b = ReportBuilder::new(layout(), 10, 1.0);
-        b.advance(0.0, &[0.0; 6]);
+        b.advance(0.0, &[0.0; 6], 0);
         let e = b
             .keep(&ReportSample {
                 t_s: 0.0,

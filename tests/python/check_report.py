@@ -12,7 +12,8 @@ would see:
   time.
 
 Usage: check_report.py REPORT.html SUMMARY.json [REPORT.html SUMMARY.json ...]
-       [--screenshot PNG] (of the first report, at its last frame)
+       [--screenshot PNG] [--screenshot-time T] (of the first report, at its
+       last frame or at the frame nearest T s)
 Exit 0 when every check passes, 1 with the failures listed, 3 when Playwright
 or Chromium is missing (the caller decides whether that is a skip).
 """
@@ -107,7 +108,13 @@ def check(browser, report, summary, failures, shot=None):
     t1 = page.locator("#time").inner_text()
     last = canvas_png(page)
     if shot:
-        page.screenshot(path=shot, full_page=False, clip={"x": 0, "y": 0, "width": 1300, "height": 1180})
+        png, at = shot
+        if at is not None:
+            page.evaluate("(t) => window.trussReport.showFrame(window.trussReport.nearest(t))", at)
+            page.wait_for_timeout(300)
+        page.screenshot(path=png, full_page=False, clip={"x": 0, "y": 0, "width": 1300, "height": 1000})
+        page.keyboard.press("End")
+        page.wait_for_timeout(200)
     if page.evaluate("window.trussReport.frame()") != frames - 1:
         fail("End on the slider did not go to the last frame")
     if t0 == t1:
@@ -176,10 +183,14 @@ def check(browser, report, summary, failures, shot=None):
 
 
 def main(argv):
-    shot = None
+    shot, at = None, None
+    if "--screenshot-time" in argv:
+        i = argv.index("--screenshot-time")
+        at = float(argv[i + 1])
+        del argv[i : i + 2]
     if "--screenshot" in argv:
         i = argv.index("--screenshot")
-        shot = argv[i + 1]
+        shot = (argv[i + 1], at)
         del argv[i : i + 2]
     if len(argv) < 2 or len(argv) % 2:
         print(__doc__, file=sys.stderr)
