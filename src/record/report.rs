@@ -606,8 +606,11 @@ pub fn layout_of(m: &Model, frames: &FrameLayout) -> ReportLayout {
     }
 }
 
+/// An energy term of a frame (J).
+type EnergyTerm = fn(&Frame) -> f64;
+
 /// The energy plot's terms (J): name, value in a frame.
-const ENERGY_TERMS: [(&str, fn(&Frame) -> f64); 12] = [
+const ENERGY_TERMS: [(&str, EnergyTerm); 12] = [
     ("kinetic", |f| f.kinetic_energy_j),
     ("motor work", |f| f.energy.motor_work_j),
     ("cable work", |f| f.energy.cable_work_j),
