@@ -4,8 +4,9 @@
 //! exact latch events and drift-free projection); [`model`] reads, validates and
 //! generates model files; [`run`] runs one model to deployment (for `simulate` and
 //! every sweep sample); [`sweep`] runs many samples of a model with scattered parameters;
+//! [`record`] holds what a run records as it steps (frames, CSV, ParaView series);
 //! [`cli`] is the command line and [`node`] the ROS 2 node. `solver`, `model`,
-//! `run` and `files` are the crate `truss-deploy-core` (`src/core.rs`), `sweep`
+//! `run`, `record` and `files` are the crate `truss-deploy-core` (`src/core.rs`), `sweep`
 //! the crate `truss-deploy-sweep` (`src/sweep/mod.rs`), re-exported here.
 
 /// println! that ignores a failed write (a closed pipe, a full disk) instead

@@ -37,6 +37,14 @@ class MotorDict(TypedDict):
     tension_n: float
     reeled_in_m: float
 
+class MemberDict(TypedDict):
+    """A member (bar or sleeve) at the end of a run: axial force (N, tension
+    positive) and length (m)."""
+    name: str
+    kind: Literal["bar", "sleeve"]
+    axial_force_n: float
+    length_m: float
+
 class RunSummaryDict(TypedDict):
     """The summary `truss-deploy simulate --json` writes (docs/cli.md)."""
     model: str
@@ -61,6 +69,7 @@ class RunSummaryDict(TypedDict):
     solver_stats: Dict[str, Any]
     accepting_fallbacks: int
     motors: List[MotorDict]
+    members: List[MemberDict]
 
 _Path = Union[str, os.PathLike[str]]
 

@@ -110,6 +110,9 @@ pub struct Thinning {
 impl Thinning {
     /// Whether step `steps` (the state after that many steps) is kept.
     pub fn keeps(&self, steps: u64) -> bool {
-        steps % self.every.max(1) == 0
+        // (a remainder, not `is_multiple_of`: older toolchains build this too)
+        #[allow(clippy::manual_is_multiple_of)]
+        let kept = steps % self.every.max(1) == 0;
+        kept
     }
 }

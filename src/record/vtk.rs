@@ -55,9 +55,9 @@ fn array<T: std::fmt::LowerExp>(
 }
 
 fn ints(out: &mut String, name: &str, vals: impl Iterator<Item = i64>) {
-    let _ = write!(
+    let _ = writeln!(
         out,
-        "        <DataArray type=\"Int64\" Name=\"{name}\" format=\"ascii\">\n"
+        "        <DataArray type=\"Int64\" Name=\"{name}\" format=\"ascii\">"
     );
     let v: Vec<String> = vals.map(|x| x.to_string()).collect();
     out.push_str(&v.join(" "));

@@ -30,6 +30,9 @@ pub fn table_path(dir: &Path, table: &str) -> PathBuf {
     dir.join(format!("{table}.parquet"))
 }
 
+/// A column's quantity suffix and the empty values it starts from.
+type Quantity<'a> = (&'a str, fn() -> Vals);
+
 enum Vals {
     F64(Vec<f64>),
     OptF64(Vec<Option<f64>>),
@@ -177,7 +180,7 @@ pub struct History {
 
 impl History {
     pub fn new(layout: FrameLayout, model_name: &str) -> History {
-        let per = |names: &[String], q: &[(&str, fn() -> Vals)]| {
+        let per = |names: &[String], q: &[Quantity]| {
             names
                 .iter()
                 .flat_map(|n| q.iter().map(move |(s, v)| (format!("{n}.{s}"), *v)))

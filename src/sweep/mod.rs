@@ -166,14 +166,33 @@ pub fn read_row(dir: &Path, index: u64) -> Option<Row> {
     serde_json::from_str(&text).ok()
 }
 
+/// Where sample `index` of the sweep in `dir` writes its history
+/// (`[sweep] history`): `DIR/history/INDEX/`, INDEX of nine digits.
+pub fn history_dir(dir: &Path, index: u64) -> PathBuf {
+    dir.join("history").join(format!("{index:09}"))
+}
+
 /// Runs one sample to its row; a panic in it becomes a row too.
 pub fn run_sample(sweep: &Sweep, index: u64, gen: &Generator, max_wall_s: Option<f64>) -> Row {
+    run_sample_recorded(sweep, index, gen, max_wall_s, None)
+}
+
+/// As [`run_sample`], writing the sample's history into `history` when given.
+pub fn run_sample_recorded(
+    sweep: &Sweep,
+    index: u64,
+    gen: &Generator,
+    max_wall_s: Option<f64>,
+    history: Option<&Path>,
+) -> Row {
     let sample = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
         let s = sweep.sample(index, gen);
         let seed = s.seed;
         let values = s.values.clone();
         let row = match &s.model {
-            Ok(text) => row::run_model(index, seed, values.clone(), text, max_wall_s),
+            Ok(text) => {
+                row::run_model_recorded(index, seed, values.clone(), text, max_wall_s, history)
+            }
             Err(m) => Row::failed(index, seed, values.clone(), "invalid", m.clone()),
         };
         (row, seed, values)
@@ -264,7 +283,8 @@ pub fn run_samples(
         todo.par_iter()
             .with_max_len(1)
             .filter_map(|&i| {
-                let row = run_sample(sweep, i, gen, max_wall_s);
+                let hist = sweep.history.then(|| history_dir(dir, i));
+                let row = run_sample_recorded(sweep, i, gen, max_wall_s, hist.as_deref());
                 let text = serde_json::to_string(&row).expect("row serializes") + "\n";
                 bar.inc(1);
                 if !opts.progress {

@@ -202,6 +202,20 @@ pub fn run_model(
     text: &str,
     max_wall_s: Option<f64>,
 ) -> Row {
+    run_model_recorded(index, seed, params, text, max_wall_s, None)
+}
+
+/// As [`run_model`], writing the run's history (every step) into `history`
+/// when given (`[sweep] history`); a history that cannot be written makes
+/// the row an error naming its path.
+pub fn run_model_recorded(
+    index: u64,
+    seed: u64,
+    params: Vec<f64>,
+    text: &str,
+    max_wall_s: Option<f64>,
+    history: Option<&std::path::Path>,
+) -> Row {
     let start = std::time::Instant::now();
     let fail = |reason: &str, m: String, params: Vec<f64>| Row {
         wall_time_s: start.elapsed().as_secs_f64(),
@@ -236,7 +250,32 @@ pub fn run_model(
         max_wall_s,
         cancel: None,
     };
-    let stop = run::run_loop(&mut sim, &checks, limits, &mut []);
+    let mut recorder = match history {
+        Some(dir) => {
+            if let Err(e) = std::fs::create_dir_all(dir) {
+                return fail(
+                    "error",
+                    format!(
+                        "sample {index}: cannot write [sweep] history {}: {e}",
+                        dir.display()
+                    ),
+                    params,
+                );
+            }
+            Some(crate::history::HistoryRecorder::new(
+                &sim,
+                dir,
+                "[sweep] history",
+                truss_deploy_core::record::Thinning { every: 1 },
+            ))
+        }
+        None => None,
+    };
+    let mut recorders: Vec<&mut dyn truss_deploy_core::record::Recorder> = Vec::new();
+    if let Some(r) = recorder.as_mut() {
+        recorders.push(r);
+    }
+    let stop = run::run_loop(&mut sim, &checks, limits, &mut recorders);
     let summary = run::summarize(
         &mut sim,
         &checks,

@@ -53,6 +53,8 @@ struct Header {
     seed: u64,
     samples: Option<Spanned<u64>>,
     max_wall_s: Option<Spanned<f64>>,
+    #[serde(default)]
+    history: bool,
 }
 
 #[derive(Deserialize, Debug)]
@@ -225,6 +227,9 @@ pub struct Sweep {
     /// Random draws per grid point (1 when not given and there is a grid).
     pub replicas: u64,
     pub max_wall_s: Option<f64>,
+    /// `[sweep] history = true`: each sample's history (Parquet, every
+    /// step) under the sweep directory's `history/INDEX/`.
+    pub history: bool,
     pub base: Base,
     /// Keys every sample's model takes as they are (`[base.solver]` and the
     /// like): (table, its keys), over the base model's.
@@ -604,6 +609,7 @@ impl Sweep {
             seed: header.seed,
             replicas,
             max_wall_s,
+            history: header.history,
             base,
             fixed: [
                 ("settings", &b.settings),

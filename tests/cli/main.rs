@@ -4,6 +4,7 @@
 mod cli;
 mod cli_plots;
 mod docs;
+mod history;
 mod malformed_corpus;
 mod model_errors;
 mod motor_speed;

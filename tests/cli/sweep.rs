@@ -705,3 +705,57 @@ fn slurm_array_matches_one_machine() {
     );
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// `[sweep] history = true`: each sample writes its history (every step)
+/// under `DIR/history/INDEX/`, one row per step and the initial state, its
+/// last row at the row's end time (read back by pyarrow where TRUSS_PYTHON
+/// has it; the Parquet framing checked either way).
+#[test]
+fn sweep_history_writes_each_samples_tables() {
+    let d = temp_dir("sweep_history");
+    let s = mast_sweep(&d, "hist", 5, Some(2), SCATTER);
+    let spec = std::fs::read_to_string(&s).unwrap();
+    std::fs::write(&s, spec.replacen("[base]", "history = true\n\n[base]", 1)).unwrap();
+    let out = d.join("out");
+    let o = run(&[
+        "sweep".as_ref(),
+        s.as_os_str(),
+        "-o".as_ref(),
+        out.as_os_str(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let rows = rows(&out);
+    assert_eq!(rows.len(), 2);
+    let py = std::env::var("TRUSS_PYTHON").ok().filter(|py| {
+        Command::new(py)
+            .args(["-c", "import pyarrow"])
+            .output()
+            .is_ok_and(|o| o.status.success())
+    });
+    for (i, row) in &rows {
+        let h = out.join("history").join(format!("{i:09}"));
+        for t in ["joints", "members", "cables", "latches", "energy"] {
+            let bytes = std::fs::read(h.join(format!("{t}.parquet")))
+                .unwrap_or_else(|e| panic!("sample {i} {t}: {e}"));
+            assert!(
+                bytes.starts_with(b"PAR1") && bytes.ends_with(b"PAR1"),
+                "{t}"
+            );
+        }
+        if let Some(py) = &py {
+            let o = Command::new(py)
+                .args([
+                    "-c",
+                    "import sys, json, pyarrow.parquet as pq\nt = pq.read_table(sys.argv[1]).to_pydict()\nprint(json.dumps({'rows': len(t['t_s']), 't': t['t_s'][-1]}))",
+                ])
+                .arg(h.join("energy.parquet"))
+                .output()
+                .expect("run python");
+            assert!(o.status.success(), "{}", text(&o));
+            let r: Value = serde_json::from_slice(&o.stdout).unwrap();
+            assert_eq!(r["rows"].as_u64(), Some(row["steps"].as_u64().unwrap() + 1));
+            assert_eq!(r["t"].as_f64(), row["time_s"].as_f64());
+        }
+    }
+    let _ = std::fs::remove_dir_all(&d);
+}
