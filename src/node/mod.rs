@@ -903,7 +903,7 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
             lock_dirty = false;
         }
         if now >= next_marker {
-            let m = view.markers(&sim, stamp, &frame_id);
+            let m = view.markers(&mut sim, stamp, &frame_id);
             if let Some(r) = rec.as_mut() {
                 let w = r.write_markers(&m, record::stamp_ns(sim.state().t_s));
                 record_failed(&mut rec, &mut rec_error, w);

@@ -27,6 +27,9 @@ pub struct View {
     joint_names: Vec<String>,
     /// (joint a, joint b, sleeve element if the member is a sleeve)
     members: Vec<(usize, usize, Option<usize>)>,
+    /// The members that carry an axial force (bars and sleeves,
+    /// `record::FrameLayout::members`): (joint a, joint b, element).
+    force_members: Vec<(usize, usize, usize)>,
     lock_names: Vec<String>,
     cable_names: Vec<String>,
     /// Publications whose least-work split failed (the solver's own split
@@ -107,6 +110,11 @@ impl View {
             joints,
             joint_names: m.joints.iter().map(|j| j.name.clone()).collect(),
             members,
+            force_members: crate::record::FrameLayout::new(m)
+                .members
+                .iter()
+                .map(|mb| (mb.joints[0], mb.joints[1], mb.element))
+                .collect(),
             lock_names: m
                 .locks
                 .iter()
@@ -303,7 +311,24 @@ impl View {
     }
 
     /// Members as two LINE_LIST markers: free members and latched sleeves.
-    pub fn markers(&self, sim: &Simulator, stamp: Time, frame: &str) -> Vec<MarkerJazzy> {
+    /// The markers: `members` (grey) and `latched_sleeves` (green), and
+    /// `member_forces`, the bars and sleeves coloured by axial force T (as
+    /// the history records it, `record::frame`): with c = T / max |T| over
+    /// them, tension (c > 0) from white to red (1, 1 - c, 1 - c),
+    /// compression to blue (1 + c, 1 + c, 1); white where none is loaded.
+    /// (`&mut`: rigid members' forces are the least-work split.)
+    pub fn markers(&self, sim: &mut Simulator, stamp: Time, frame: &str) -> Vec<MarkerJazzy> {
+        let forces: Vec<f64> = if self.force_members.is_empty() {
+            Vec::new()
+        } else {
+            let (lambda, _) = crate::record::frame::member_multipliers(sim);
+            self.force_members
+                .iter()
+                .map(|&(_, _, e)| {
+                    crate::record::frame::axial_force_n(sim, &lambda, e).unwrap_or(0.0)
+                })
+                .collect()
+        };
         let s = sim.state();
         let p = |j: usize| Point {
             x: s.x[3 * j],
@@ -316,6 +341,32 @@ impl View {
             let v = if locked { &mut latched } else { &mut free };
             v.push(p(a));
             v.push(p(b));
+        }
+        let largest = forces.iter().fold(0.0f64, |m, f| m.max(f.abs()));
+        let (mut loaded, mut shades) = (Vec::new(), Vec::new());
+        for (&(a, b, _), &f) in self.force_members.iter().zip(&forces) {
+            let c = if largest > 0.0 {
+                (f / largest) as f32
+            } else {
+                0.0
+            };
+            let shade = if c >= 0.0 {
+                ColorRGBA {
+                    r: 1.0,
+                    g: 1.0 - c,
+                    b: 1.0 - c,
+                    a: 1.0,
+                }
+            } else {
+                ColorRGBA {
+                    r: 1.0 + c,
+                    g: 1.0 + c,
+                    b: 1.0,
+                    a: 1.0,
+                }
+            };
+            loaded.extend([p(a), p(b)]);
+            shades.extend([shade, shade]);
         }
         let mk = |id: i32, ns: &str, pts: Vec<Point>, color: ColorRGBA| MarkerJazzy {
             header: Header {
@@ -353,6 +404,18 @@ impl View {
             mesh_file: MeshFile::default(),
             mesh_use_embedded_materials: false,
         };
+        let mut by_force = mk(
+            2,
+            "member_forces",
+            loaded,
+            ColorRGBA {
+                r: 1.0,
+                g: 1.0,
+                b: 1.0,
+                a: 1.0,
+            },
+        );
+        by_force.colors = shades;
         vec![
             mk(
                 0,
@@ -376,6 +439,7 @@ impl View {
                     a: 1.0,
                 },
             ),
+            by_force,
         ]
     }
 }
@@ -413,7 +477,7 @@ impl MarkerPub {
         })
     }
 
-    pub fn publish(&self, view: &View, sim: &Simulator, stamp: Time, frame: &str) {
+    pub fn publish(&self, view: &View, sim: &mut Simulator, stamp: Time, frame: &str) {
         self.publish_built(view.markers(sim, stamp, frame));
     }
 
@@ -575,6 +639,49 @@ mod tests {
                 (d - s).abs() <= 1e-6 * total,
                 "dense {dense:?} vs sparse {sparse:?}"
             );
+        }
+    }
+
+    /// The deployed mast's `member_forces` marker: one line per sleeve, each
+    /// coloured by the sign and share of its force in the frame the history
+    /// records (tension red, compression blue), the most loaded saturated.
+    #[test]
+    fn member_force_marker_colours_follow_the_recorded_forces() {
+        let path = concat!(env!("CARGO_MANIFEST_DIR"), "/models/pantograph_mast.toml");
+        let model = crate::model::load(std::path::Path::new(path))
+            .expect("bundled model")
+            .model;
+        let view = View::new(&model);
+        let mut sim = Simulator::new(model, Options::default()).expect("simulator");
+        while !sim.state().deployed {
+            sim.step(0.05).expect("step");
+        }
+        let layout = crate::record::FrameLayout::new(sim.model());
+        let frame = crate::record::Frame::capture(&layout, &mut sim);
+        let stamp = sim_stamp(sim.state().t_s);
+        let ms = view.markers(&mut sim, stamp, "world");
+        let m = ms.iter().find(|m| m.ns == "member_forces").expect("marker");
+        assert_eq!(m.points.len(), 2 * layout.members.len());
+        assert_eq!(m.colors.len(), m.points.len());
+        let largest = frame
+            .member_force_n
+            .iter()
+            .fold(0.0f64, |a, f| a.max(f.abs()));
+        assert!(largest > 0.0);
+        for (k, &f) in frame.member_force_n.iter().enumerate() {
+            let c = m.colors[2 * k];
+            let share = (f.abs() / largest) as f32;
+            if f > 0.0 {
+                assert!(
+                    c.r == 1.0 && (c.g - (1.0 - share)).abs() < 1e-6,
+                    "{k}: {f} N {c:?}"
+                );
+            } else {
+                assert!(
+                    c.b == 1.0 && (c.r - (1.0 - share)).abs() < 1e-6,
+                    "{k}: {f} N {c:?}"
+                );
+            }
         }
     }
 
