@@ -165,3 +165,24 @@ fn an_unwritable_report_path_is_bad_input_naming_the_flag() {
     assert!(!text(&o).contains("panicked"), "{}", text(&o));
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A run stopped before it deployed still writes its report, with the stop
+/// reason and the frames computed until then.
+#[test]
+fn a_run_stopped_early_writes_its_report_with_the_stop_reason() {
+    let dir = temp_dir("report_until");
+    let html = dir.join("until.html");
+    let o = run(&[
+        "simulate".as_ref(),
+        model("pantograph_mast.toml").as_os_str(),
+        "--until".as_ref(),
+        "5".as_ref(),
+        "--report".as_ref(),
+        html.as_os_str(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", text(&o));
+    let page = std::fs::read_to_string(&html).expect("the report is written");
+    assert!(page.contains(r#""stop_reason":"until""#));
+    assert!(page.contains("reached --until 5 s, not deployed"));
+    let _ = std::fs::remove_dir_all(&dir);
+}
