@@ -291,12 +291,16 @@ impl History {
         push(
             cables,
             f,
-            (0..self.layout.cables.len()).flat_map(|c| {
-                f.cable_tension_n[c].iter().map(|&t| V::F(t)).chain([
-                    V::F(f.cable_length_m[c]),
-                    V::F(f.reeled_in_m[c]),
-                    V::S(motor_mode_label(f.motor_mode[c])),
-                ])
+            self.layout.cables.iter().enumerate().flat_map(|(c, info)| {
+                // (as many values as the layout's segments, whatever the
+                // evaluation holds: NaN for one it lacks)
+                (0..info.segments)
+                    .map(move |k| V::F(f.cable_tension_n[c].get(k).copied().unwrap_or(f64::NAN)))
+                    .chain([
+                        V::F(f.cable_length_m[c]),
+                        V::F(f.reeled_in_m[c]),
+                        V::S(motor_mode_label(f.motor_mode[c])),
+                    ])
             }),
         );
         push(
