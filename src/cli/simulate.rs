@@ -11,7 +11,7 @@
 use super::output::{check_outputs, write_atomic};
 use super::{interrupt, make_simulator_from, plot, Failure, SolverArg};
 use crate::record::csv::CsvRecorder;
-use crate::record::{vtk, RecordError, Recorder, Thinning};
+use crate::record::{report, vtk, RecordError, Recorder, Thinning};
 use crate::run::{self, RunLimits};
 use crate::solver::checks;
 use crate::solver::state::MotorHold;
@@ -56,6 +56,11 @@ pub struct SimulateArgs {
         allow_negative_numbers = true
     )]
     history_every: i64,
+    /// Write one self-contained HTML report (no network needed): the truss in 3D playing
+    /// its deployment, members coloured by axial force, cable tension, latch forces and
+    /// energy against time, the latch table and the solver's counters (docs/cli.md).
+    #[arg(long, value_name = "FILE.html")]
+    report: Option<PathBuf>,
     /// Draw the x, y, z histories of the --joints, latch events marked (SVG).
     #[arg(long, value_name = "FILE.svg")]
     plot: Option<PathBuf>,
@@ -269,6 +274,7 @@ pub fn run(a: SimulateArgs) -> Result<(), Failure> {
         ("--plot", &a.plot),
         ("--snapshots", &a.snapshots),
         ("--latch-plot", &a.latch_plot),
+        ("--report", &a.report),
         ("--mcap", mcap_path),
     ]
     .into_iter()
@@ -388,6 +394,10 @@ pub fn run(a: SimulateArgs) -> Result<(), Failure> {
         .vtk
         .as_deref()
         .map(|d| vtk::VtkRecorder::new(&sim, d, thin));
+    let mut html = a
+        .report
+        .as_deref()
+        .map(|p| report::ReportRecorder::new(&sim, p, until, report::DEFAULT_FRAME_BUDGET));
     let (mut plot_hook, mut progress) = (PlotHook(&mut rec), ProgressHook(&bar));
     // (the order of the hooks: the files after each step, then the plots;
     // the MCAP recording and the progress bar after the checks)
@@ -400,6 +410,9 @@ pub fn run(a: SimulateArgs) -> Result<(), Failure> {
     }
     if let Some(v) = series.as_mut() {
         recorders.push(v);
+    }
+    if let Some(r) = html.as_mut() {
+        recorders.push(r);
     }
     recorders.push(&mut plot_hook);
     #[cfg(feature = "ros")]
@@ -423,6 +436,12 @@ pub fn run(a: SimulateArgs) -> Result<(), Failure> {
             st.messages,
             st.bytes,
             a.mcap.as_deref().expect("mcap path").display()
+        );
+    }
+    if let Some((frames, bytes)) = html.as_ref().and_then(|r| r.written) {
+        say!(
+            "report           {frames} frames, {bytes} bytes: {}",
+            a.report.as_deref().expect("report path").display()
         );
     }
     let (m, s) = (sim.model(), sim.state());

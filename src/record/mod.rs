@@ -9,6 +9,7 @@
 
 pub mod csv;
 pub mod frame;
+pub mod report;
 pub mod vtk;
 
 pub use frame::{Frame, FrameLayout, LatchState, MemberKind};

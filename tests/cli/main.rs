@@ -8,6 +8,7 @@ mod history;
 mod malformed_corpus;
 mod model_errors;
 mod motor_speed;
+mod report;
 mod run_outcomes;
 mod sweep;
 
