@@ -1,5 +1,6 @@
-"""A ring sweep from Python: synchronized 12-sided double rings whose drive
-tension, pulley friction and joint damping scatter, run on every core (or a
+"""A ring sweep from Python: synchronized 12-sided double rings (elastic members:
+rigid ones meet the flat state's near-singularity, where a run stops at its first
+inexact result) whose drive tension, pulley friction and joint damping scatter, run on every core (or a
 Dask cluster), and the distribution of their deploy times plotted with
 matplotlib (Agg backend) to a PNG.
 
@@ -17,7 +18,8 @@ def sweep_spec(samples: int) -> dict:
     """The sweep, as the dict of a sweep file's tables (docs/sweeps.md)."""
     return {
         "sweep": {"name": "ring12_sync_mc", "seed": 49, "samples": samples, "max_wall_s": 120.0},
-        "base": {"generator": "ring", "args": {"sides": 12, "sync": "both", "tension_n": 15.0, "damping": 50.0}},
+        "base": {"generator": "ring", "args": {"sides": 12, "sync": "both", "tension_n": 15.0, "damping": 50.0,
+                                                   "members": "elastic"}},
         "param": [
             {"key": "generator.tension_n", "dist": "uniform", "min": 0.8, "max": 1.2, "relative": True},
             {"key": "generator.mu", "dist": "uniform", "min": 0.002, "max": 0.03},

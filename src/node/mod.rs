@@ -664,11 +664,16 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
     let spin = tokio::spawn(spinner.spin());
     let mut live = Live::from(&par.params);
     let frame_id = par.params.string(params::FRAME_ID).to_string();
-    let _ = ep.tf_static.publish(publish::tf_mount(
+    let mount = publish::tf_mount(
         par.params.string(params::PARENT_FRAME_ID),
         &frame_id,
         sim_stamp(0.0),
-    ));
+    );
+    if let Some(r) = rec.as_mut() {
+        let w = r.write(record::Topic::TfStatic, &mount, 0);
+        record_failed(&mut rec, &mut rec_error, w);
+    }
+    let _ = ep.tf_static.publish(mount);
     node_log!(Info,
         "node {} on ROS domain {}{}; model {} ({} joints, {} cables), dt {} s, rtf {}, publishing at {:.3} Hz",
         node.fully_qualified_name(),
@@ -710,12 +715,14 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
         if now >= next_pub {
             let stamp = sim_stamp(sim.state().t_s);
             let (js, st) = view.state_messages(&mut sim, stamp, &frame_id);
+            let tf = publish::tf_joints(&sim, &tf_joints, stamp, &frame_id);
             if let Some(r) = rec.as_mut() {
                 let ns = record::stamp_ns(sim.state().t_s);
                 let w = r
                     .write(record::Topic::Clock, &Clock { clock: stamp }, ns)
                     .and_then(|_| r.write(record::Topic::JointStates, &js, ns))
-                    .and_then(|_| r.write(record::Topic::State, &st, ns));
+                    .and_then(|_| r.write(record::Topic::State, &st, ns))
+                    .and_then(|_| r.write(record::Topic::Tf, &tf, ns));
                 record_failed(&mut rec, &mut rec_error, w);
             }
             if let Some(clock) = &ep.clock {
@@ -723,9 +730,7 @@ pub async fn run(a: NodeArgs) -> Result<RunSummary, NodeError> {
             }
             let _ = ep.js.publish(js);
             let _ = ep.state.publish(st);
-            let _ = ep
-                .tf
-                .publish(publish::tf_joints(&sim, &tf_joints, stamp, &frame_id));
+            let _ = ep.tf.publish(tf);
             summary.publications += 1;
             if let Some(tm) = timing.as_mut() {
                 if tm.publish_at.len() < MAX_TIMING_RECORDS {

@@ -70,6 +70,18 @@ const STANDARD_MSGS: &[(&str, &str)] = &[
     ),
     ("geometry_msgs/Pose", "Point position\nQuaternion orientation\n"),
     (
+        "geometry_msgs/Transform",
+        "Vector3 translation\nQuaternion rotation\n",
+    ),
+    (
+        "geometry_msgs/TransformStamped",
+        "std_msgs/Header header\nstring child_frame_id\nTransform transform\n",
+    ),
+    (
+        "tf2_msgs/TFMessage",
+        "geometry_msgs/TransformStamped[] transforms\n",
+    ),
+    (
         "sensor_msgs/JointState",
         "std_msgs/Header header\nstring[] name\nfloat64[] position\nfloat64[] velocity\nfloat64[] effort\n",
     ),
@@ -221,12 +233,19 @@ pub enum Topic {
     LockStatus = 2,
     Markers = 3,
     Clock = 4,
+    Tf = 5,
+    TfStatic = 6,
 }
+
+/// The number of recorded topics ([`Topic`]).
+pub const TOPICS: usize = 7;
 
 /// (type, topic under the node's namespace as (sub-namespace, base), QoS YAML)
 /// of every recorded topic under its resolved (and remapped) name, as
 /// `create_endpoints` offers them (DESIGN.md).
-fn topic_table(names: &super::Naming) -> Result<[(&'static str, String, String); 5], String> {
+fn topic_table(
+    names: &super::Naming,
+) -> Result<[(&'static str, String, String); TOPICS], String> {
     let name = |n: &str| names.full(n);
     Ok([
         (
@@ -255,6 +274,17 @@ fn topic_table(names: &super::Naming) -> Result<[(&'static str, String, String);
             name("/clock")?,
             qos_yaml(1, false, false),
         ),
+        // (as tf2's TransformBroadcaster and StaticTransformBroadcaster offer them)
+        (
+            "tf2_msgs/msg/TFMessage",
+            name("/tf")?,
+            qos_yaml(100, true, false),
+        ),
+        (
+            "tf2_msgs/msg/TFMessage",
+            name("/tf_static")?,
+            qos_yaml(1, true, true),
+        ),
     ])
 }
 
@@ -264,7 +294,7 @@ pub struct RecordStats {
     pub path: PathBuf,
     pub messages: u64,
     /// per topic, in [`Topic`] order
-    pub per_topic: [u64; 5],
+    pub per_topic: [u64; TOPICS],
     pub bytes: u64,
 }
 
@@ -272,8 +302,8 @@ pub struct RecordStats {
 pub struct Recorder {
     writer: mcap::Writer<BufWriter<File>>,
     markers: Distro,
-    channels: [u16; 5],
-    sequence: [u32; 5],
+    channels: [u16; TOPICS],
+    sequence: [u32; TOPICS],
     buf: Vec<u8>,
     stats: RecordStats,
 }
@@ -295,7 +325,7 @@ impl Recorder {
             // every flush(), whichever comes first.
             .chunk_size(Some(256 * 1024));
         let mut writer = options.create(BufWriter::new(file)).map_err(|e| what(&e))?;
-        let mut channels = [0u16; 5];
+        let mut channels = [0u16; TOPICS];
         for (k, (ty, topic, qos)) in topic_table(names)?.iter().enumerate() {
             // "pkg/msg/Type" names the schema; definitions refer to "pkg/Type"
             let short = ty.replacen("/msg/", "/", 1);
@@ -312,7 +342,7 @@ impl Recorder {
             writer,
             markers,
             channels,
-            sequence: [0; 5],
+            sequence: [0; TOPICS],
             buf: Vec::with_capacity(4096),
             stats: RecordStats {
                 path: path.to_path_buf(),
@@ -395,8 +425,8 @@ pub fn stamp_ns(t_s: f64) -> u64 {
     sim_stamp(t_s).to_nanos().max(0) as u64
 }
 
-/// `simulate --mcap`: the node's publications for an offline run. /joint_states,
-/// /truss/state and /clock at the start, then every `period_s` of simulation
+/// `simulate --mcap`: the node's publications for an offline run. /tf_static
+/// (the mount) once; /joint_states, /truss/state, /tf and /clock at the start, then every `period_s` of simulation
 /// time (every step when `None`) and at the last state; /truss/markers as the
 /// node publishes them, every [`MARKER_PERIOD_S`] (of simulation time here),
 /// or at every publication when those are sparser, and at the last state;
@@ -411,6 +441,8 @@ pub struct OfflineRecording {
     next_marker_s: f64,
     last_t_s: f64,
     last_marker_t_s: f64,
+    /// The joints recorded as /tf frames (the node's default `tf_frames`).
+    tf_joints: Vec<usize>,
     /// What /truss/lock_status was last recorded for: (latch events, deployed,
     /// motor tensions). Offline, nothing else in it changes (no commands, no
     /// pause), so comparing these is comparing the message without building it.
@@ -419,6 +451,9 @@ pub struct OfflineRecording {
 
 /// The frame of headers and markers (the node's default `--frame-id`).
 pub const FRAME: &str = "truss";
+
+/// The frame /tf_static mounts [`FRAME`] in (the node's default `parent_frame_id`).
+pub const PARENT_FRAME: &str = "world";
 
 /// The node's /truss/markers period (5 Hz, `launch_notes.md`). A MarkerArray
 /// is 84 % of a ring recording's bytes at every step, and a 3D panel gains
@@ -444,8 +479,14 @@ impl OfflineRecording {
             next_marker_s: sim.state().t_s,
             last_t_s: f64::NAN,
             last_marker_t_s: f64::NAN,
+            tf_joints: super::publish::tf_joint_indices(
+                sim.model(),
+                &super::publish::default_tf_joints(sim.model()),
+            )?,
             last_lock: None,
         };
+        let mount = super::publish::tf_mount(PARENT_FRAME, FRAME, sim_stamp(0.0));
+        me.rec.write(Topic::TfStatic, &mount, 0)?;
         me.after_step(sim)?;
         Ok(me)
     }
@@ -473,6 +514,8 @@ impl OfflineRecording {
         self.rec.write(Topic::Clock, &Clock { clock: stamp }, ns)?;
         self.rec.write(Topic::JointStates, &js, ns)?;
         self.rec.write(Topic::State, &st, ns)?;
+        let tf = super::publish::tf_joints(sim, &self.tf_joints, stamp, &self.frame);
+        self.rec.write(Topic::Tf, &tf, ns)?;
         self.last_t_s = t;
         if last || t >= self.next_marker_s - 1e-9 {
             self.markers(sim)?;

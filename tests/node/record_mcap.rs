@@ -67,12 +67,14 @@ fn simulate_mast(args: &[&std::ffi::OsStr]) {
     assert!(out.status.success(), "simulate {args:?}: {err}");
 }
 
-const TOPICS: [(&str, &str); 5] = [
+const TOPICS: [(&str, &str); 7] = [
     ("/joint_states", "sensor_msgs/msg/JointState"),
     ("/truss/state", "truss_deploy/msg/TrussState"),
     ("/truss/lock_status", "truss_deploy/msg/LockStatus"),
     ("/truss/markers", "visualization_msgs/msg/MarkerArray"),
     ("/clock", "rosgraph_msgs/msg/Clock"),
+    ("/tf", "tf2_msgs/msg/TFMessage"),
+    ("/tf_static", "tf2_msgs/msg/TFMessage"),
 ];
 
 fn count(v: &Value, reader: &str, topic: &str) -> u64 {
@@ -136,6 +138,17 @@ fn check_whole(v: &Value) {
     assert_eq!(qos("/truss/lock_status")["depth"], 1);
     assert_eq!(qos("/clock")["reliability"], "BEST_EFFORT");
     assert_eq!(qos("/truss/markers")["reliability"], "RELIABLE");
+    // (as tf2's broadcasters offer them)
+    assert_eq!(qos("/tf")["reliability"], "RELIABLE");
+    assert_eq!(qos("/tf")["durability"], "VOLATILE");
+    assert_eq!(qos("/tf")["depth"], 100);
+    assert_eq!(qos("/tf_static")["durability"], "TRANSIENT_LOCAL");
+    assert_eq!(qos("/tf_static")["depth"], 1);
+    for t in ["/tf", "/tf_static"] {
+        let last = &m["topics"][t]["last_transforms"];
+        assert!(!last.as_array().unwrap().is_empty(), "{t}");
+        assert_eq!(last, &r["topics"][t]["last_transforms"], "{t}: readers disagree");
+    }
     assert_eq!(m["final_lock"], r["final_lock"]);
     assert_eq!(m["final_state"], r["final_state"]);
 }
@@ -165,7 +178,7 @@ fn simulate_mast_recording_decodes_whole_with_both_readers() {
 
     let steps = s["steps"].as_u64().unwrap();
     let end_ns = (s["time_s"].as_f64().unwrap() * 1e9).round() as u64;
-    for topic in ["/joint_states", "/truss/state", "/clock", "/truss/markers"] {
+    for topic in ["/joint_states", "/truss/state", "/clock", "/tf", "/truss/markers"] {
         let t = &v["mcap"]["topics"][topic];
         assert_eq!(t["first_ns"], 0, "{topic}");
         assert_eq!(t["last_ns"].as_u64(), Some(end_ns), "{topic}");
@@ -173,6 +186,17 @@ fn simulate_mast_recording_decodes_whole_with_both_readers() {
             assert_eq!(count(&v, "mcap", topic), steps + 1, "{topic}");
         }
     }
+    // /tf_static: the mount, once; /tf: the mast's tip, the highest joint of
+    // the deployed geometry, in the model frame at the last state
+    assert_eq!(count(&v, "mcap", "/tf_static"), 1);
+    let mount = &v["mcap"]["topics"]["/tf_static"]["last_transforms"][0];
+    assert_eq!(mount["parent"], "world");
+    assert_eq!(mount["child"], "truss");
+    assert_eq!(mount["rotation"], serde_json::json!([0.0, 0.0, 0.0, 1.0]));
+    let tip = &v["mcap"]["topics"]["/tf"]["last_transforms"];
+    assert_eq!(tip.as_array().unwrap().len(), 1, "{tip}");
+    assert_eq!(tip[0]["parent"], "truss");
+    assert_eq!(tip[0]["child"], "truss/L4", "{tip}");
     let stamps = |topic: &str| -> Vec<u64> {
         v["mcap"]["topics"][topic]["stamps_ns"]
             .as_array()

@@ -30,6 +30,9 @@ def check_topic(out, topic, log_time, publish_time, msg):
         s = stamp_ns(msg.header.stamp)
     elif topic == "/clock":
         s = stamp_ns(msg.clock)
+    elif topic in ("/tf", "/tf_static"):  # every transform's header
+        stamps = {stamp_ns(tr.header.stamp) for tr in msg.transforms}
+        s = stamps.pop() if len(stamps) == 1 else -1
     else:  # markers: every marker's header
         stamps = {stamp_ns(m.header.stamp) for m in msg.markers}
         s = stamps.pop() if len(stamps) == 1 else -1
@@ -42,6 +45,14 @@ def check_topic(out, topic, log_time, publish_time, msg):
     t["last_ns"] = log_time
     if topic in ("/joint_states", "/truss/markers"):
         t.setdefault("stamps_ns", []).append(log_time)
+    if topic in ("/tf", "/tf_static"):
+        t["last_transforms"] = [
+            {"parent": tr.header.frame_id, "child": tr.child_frame_id,
+             "translation": [float(tr.transform.translation.x), float(tr.transform.translation.y),
+                             float(tr.transform.translation.z)],
+             "rotation": [float(tr.transform.rotation.x), float(tr.transform.rotation.y),
+                          float(tr.transform.rotation.z), float(tr.transform.rotation.w)]}
+            for tr in msg.transforms]
 
 
 def lock_facts(m):
