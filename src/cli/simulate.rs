@@ -42,18 +42,19 @@ pub struct SimulateArgs {
     json: Option<PathBuf>,
     /// Write the run's history as Parquet tables into this directory (created if missing):
     /// joints.parquet, members.parquet, cables.parquet, latches.parquet, energy.parquet.
-    #[arg(long, value_name = "DIR")]
+    #[arg(long, value_name = "DIR", group = "thinned")]
     history: Option<PathBuf>,
     /// Write the run as a ParaView series into this directory (created if missing):
     /// run.pvd over frame_00000.vtp, ...
-    #[arg(long, value_name = "DIR")]
+    #[arg(long, value_name = "DIR", group = "thinned")]
     vtk: Option<PathBuf>,
     /// --history, --vtk: record every N-th step (the first and the last always).
     #[arg(
         long,
         value_name = "N",
         default_value_t = 1,
-        allow_negative_numbers = true
+        allow_negative_numbers = true,
+        requires = "thinned"
     )]
     history_every: i64,
     /// Write one self-contained HTML report (no network needed): the truss in 3D playing

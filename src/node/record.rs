@@ -243,9 +243,7 @@ pub const TOPICS: usize = 7;
 /// (type, topic under the node's namespace as (sub-namespace, base), QoS YAML)
 /// of every recorded topic under its resolved (and remapped) name, as
 /// `create_endpoints` offers them (DESIGN.md).
-fn topic_table(
-    names: &super::Naming,
-) -> Result<[(&'static str, String, String); TOPICS], String> {
+fn topic_table(names: &super::Naming) -> Result<[(&'static str, String, String); TOPICS], String> {
     let name = |n: &str| names.full(n);
     Ok([
         (

@@ -450,6 +450,19 @@ fn history_every_zero_is_an_input_error() {
         assert!(err.contains(&format!("--history-every {n}")), "{err}");
         assert!(!err.contains("panicked"), "{err}");
     }
+    // (without --history or --vtk it thins nothing: an input error, not ignored)
+    let o = run(&[
+        "simulate".as_ref(),
+        model("pantograph_mast.toml").as_os_str(),
+        "--history-every".as_ref(),
+        "5".as_ref(),
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{}", text(&o));
+    assert!(
+        err.contains("--history-every") && err.contains("--history"),
+        "{err}"
+    );
     let _ = std::fs::remove_dir_all(&d);
 }
 

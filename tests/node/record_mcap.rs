@@ -147,7 +147,10 @@ fn check_whole(v: &Value) {
     for t in ["/tf", "/tf_static"] {
         let last = &m["topics"][t]["last_transforms"];
         assert!(!last.as_array().unwrap().is_empty(), "{t}");
-        assert_eq!(last, &r["topics"][t]["last_transforms"], "{t}: readers disagree");
+        assert_eq!(
+            last, &r["topics"][t]["last_transforms"],
+            "{t}: readers disagree"
+        );
     }
     assert_eq!(m["final_lock"], r["final_lock"]);
     assert_eq!(m["final_state"], r["final_state"]);
@@ -178,7 +181,13 @@ fn simulate_mast_recording_decodes_whole_with_both_readers() {
 
     let steps = s["steps"].as_u64().unwrap();
     let end_ns = (s["time_s"].as_f64().unwrap() * 1e9).round() as u64;
-    for topic in ["/joint_states", "/truss/state", "/clock", "/tf", "/truss/markers"] {
+    for topic in [
+        "/joint_states",
+        "/truss/state",
+        "/clock",
+        "/tf",
+        "/truss/markers",
+    ] {
         let t = &v["mcap"]["topics"][topic];
         assert_eq!(t["first_ns"], 0, "{topic}");
         assert_eq!(t["last_ns"].as_u64(), Some(end_ns), "{topic}");
