@@ -22,6 +22,8 @@ use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;
 
 #[derive(Args, Debug)]
+// (the outputs --history-every thins: either or both)
+#[command(group(clap::ArgGroup::new("thinned").multiple(true)))]
 pub struct SimulateArgs {
     model: PathBuf,
     /// Time step (s); default: the model's `dt_s`. At least 1e-9 of the run, at most all of it.
