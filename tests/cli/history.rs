@@ -35,26 +35,7 @@ fn read_json(p: &Path) -> Value {
 /// TRUSS_PYTHON if it imports `modules`; None (skipped, said why) unless
 /// TRUSS_REQUIRE_PYARROW=1.
 fn python_with(modules: &str) -> Option<String> {
-    let required = std::env::var("TRUSS_REQUIRE_PYARROW").as_deref() == Ok("1");
-    let why = match std::env::var("TRUSS_PYTHON") {
-        Err(_) => "TRUSS_PYTHON is not set".to_string(),
-        Ok(py) => match Command::new(&py)
-            .args(["-c", &format!("import {modules}")])
-            .output()
-        {
-            Ok(o) if o.status.success() => return Some(py),
-            Ok(o) => format!(
-                "{py} cannot import {modules}: {}",
-                String::from_utf8_lossy(&o.stderr)
-            ),
-            Err(e) => format!("cannot run {py}: {e}"),
-        },
-    };
-    assert!(!required, "TRUSS_REQUIRE_PYARROW=1 but {why}");
-    eprintln!(
-        "\n!!!!!!!! SKIPPED: {why}; install {modules} and set TRUSS_PYTHON (.ci/run does) !!!!!!!!\n"
-    );
-    None
+    crate::python_with(modules, None, "TRUSS_REQUIRE_PYARROW", modules)
 }
 
 /// Runs `script` with `args`; its stdout parsed as JSON.

@@ -40,3 +40,34 @@ pub fn run<S: AsRef<std::ffi::OsStr>>(args: &[S]) -> Output {
         .output()
         .expect("run truss-deploy")
 }
+
+/// TRUSS_PYTHON if it imports `modules` (and `missing` is None: a
+/// non-Python prerequisite found); None, skipped with the reason, unless
+/// the environment variable `require` is "1", when it fails instead.
+/// `install` says what to install.
+pub fn python_with(
+    modules: &str,
+    missing: Option<String>,
+    require: &str,
+    install: &str,
+) -> Option<String> {
+    let required = std::env::var(require).as_deref() == Ok("1");
+    let why = match std::env::var("TRUSS_PYTHON") {
+        Err(_) => "TRUSS_PYTHON is not set".to_string(),
+        Ok(_) if missing.is_some() => missing.unwrap_or_default(),
+        Ok(py) => match Command::new(&py)
+            .args(["-c", &format!("import {modules}")])
+            .output()
+        {
+            Ok(o) if o.status.success() => return Some(py),
+            Ok(o) => format!(
+                "{py} cannot import {modules}: {}",
+                String::from_utf8_lossy(&o.stderr)
+            ),
+            Err(e) => format!("cannot run {py}: {e}"),
+        },
+    };
+    assert!(!required, "{require}=1 but {why}");
+    eprintln!("\n!!!!!!!! SKIPPED: {why}; install {install} and set TRUSS_PYTHON (.ci/run does) !!!!!!!!\n");
+    None
+}

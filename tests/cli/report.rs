@@ -63,29 +63,14 @@ fn report_of(dir: &Path, name: &str, file: &str) -> (PathBuf, PathBuf) {
 /// TRUSS_PYTHON with Playwright, and Chromium; None (skipped, said why)
 /// unless TRUSS_REQUIRE_CHROMIUM=1.
 fn python_with_playwright() -> Option<String> {
-    let required = std::env::var("TRUSS_REQUIRE_CHROMIUM").as_deref() == Ok("1");
     let chromium = std::env::var("TRUSS_CHROMIUM").unwrap_or_else(|_| "/usr/bin/chromium".into());
-    let why = match std::env::var("TRUSS_PYTHON") {
-        Err(_) => "TRUSS_PYTHON is not set".to_string(),
-        Ok(_) if !Path::new(&chromium).exists() => format!("no Chromium at {chromium}"),
-        Ok(py) => match Command::new(&py)
-            .args(["-c", "import playwright.sync_api"])
-            .output()
-        {
-            Ok(o) if o.status.success() => return Some(py),
-            Ok(o) => format!(
-                "{py} cannot import playwright: {}",
-                String::from_utf8_lossy(&o.stderr)
-            ),
-            Err(e) => format!("cannot run {py}: {e}"),
-        },
-    };
-    assert!(!required, "TRUSS_REQUIRE_CHROMIUM=1 but {why}");
-    eprintln!(
-        "\n!!!!!!!! SKIPPED: {why}; install chromium and playwright (pip, no `playwright install`) \
-         and set TRUSS_PYTHON (.ci/run does) !!!!!!!!\n"
-    );
-    None
+    let missing = (!Path::new(&chromium).exists()).then(|| format!("no Chromium at {chromium}"));
+    crate::python_with(
+        "playwright.sync_api",
+        missing,
+        "TRUSS_REQUIRE_CHROMIUM",
+        "chromium and playwright (pip, no `playwright install`)",
+    )
 }
 
 #[test]

@@ -510,24 +510,12 @@ fn shards_merge_to_the_one_machine_rows_and_refuse_another_sweep() {
 /// TRUSS_PYTHON with pyarrow and pandas; None (skipped, said why) unless
 /// TRUSS_REQUIRE_PYARROW=1.
 fn python_with_pyarrow() -> Option<String> {
-    let required = std::env::var("TRUSS_REQUIRE_PYARROW").as_deref() == Ok("1");
-    let why = match std::env::var("TRUSS_PYTHON") {
-        Err(_) => "TRUSS_PYTHON is not set".to_string(),
-        Ok(py) => match Command::new(&py)
-            .args(["-c", "import pyarrow, pandas"])
-            .output()
-        {
-            Ok(o) if o.status.success() => return Some(py),
-            Ok(o) => format!(
-                "{py} cannot import pyarrow and pandas: {}",
-                String::from_utf8_lossy(&o.stderr)
-            ),
-            Err(e) => format!("cannot run {py}: {e}"),
-        },
-    };
-    assert!(!required, "TRUSS_REQUIRE_PYARROW=1 but {why}");
-    eprintln!("\n!!!!!!!! SKIPPED: {why}; install pyarrow and pandas and set TRUSS_PYTHON (.ci/run does) !!!!!!!!\n");
-    None
+    crate::python_with(
+        "pyarrow, pandas",
+        None,
+        "TRUSS_REQUIRE_PYARROW",
+        "pyarrow and pandas",
+    )
 }
 
 #[test]
