@@ -45,14 +45,17 @@ use super::SolverError;
 /// split (which then depends on its inputs alone), and the row-scaled
 /// Jacobian.
 ///
-/// The row scaling spreads S_w's diagonal over RIGID_ROW_EPS^-1 (1e6): on
-/// it the sparse backend's minimum-norm solve can find the right-hand side
-/// inconsistent and give the least-squares answer of its projected
-/// Richardson iteration unconverged, multipliers whose A^T lambda is not f
-/// at all (the bundled sail: latch impulses 0.002 N s for 1.34 N s, energies
-/// lost that were negative). Such a split is made again by the dense SVD
-/// (exact in least squares), up to `rank_check_max_coords`; beyond it the
-/// sparse answer is kept and counted inexact.
+/// On the sparse backend the split is made on an explicit basis of the
+/// states of self-stress (`split_by_self_stress`); on the dense one it is
+/// the SVD's minimum-norm solve of the row-scaled system (`split`), which
+/// also redoes a sparse split that is not exact (the kept rows lost rank at
+/// a near-dependent state, or the joint forces moved), up to
+/// `rank_check_max_coords`; beyond it the sparse answer is kept and counted
+/// inexact. (The sparse backend's own minimum-norm solve of the row-scaled
+/// system is not used: that system spreads its diagonal over
+/// RIGID_ROW_EPS^-1, 1e6, and its iteration can find the right-hand side
+/// inconsistent and stop unconverged, with multipliers whose A^T lambda is
+/// not f at all.)
 pub struct LeastWork {
     solver: Box<dyn ConstraintSolver>,
     /// The dense backend for the splits the sparse one cannot give exactly
@@ -72,6 +75,13 @@ pub struct LeastWork {
     r: Vec<f64>,
     dx: Vec<f64>,
     mu: Vec<f64>,
+    /// The self-stress route's scratch: the redundant rows, the kept-row
+    /// N (rows x redundant rows), lambda_p, A^T lambda and A^T lambda_p.
+    redundant: Vec<usize>,
+    basis: nalgebra::DMatrix<f64>,
+    lambda_p: Vec<f64>,
+    force: Vec<f64>,
+    force_p: Vec<f64>,
 }
 
 impl LeastWork {
@@ -88,6 +98,11 @@ impl LeastWork {
             r: Vec::new(),
             dx: Vec::new(),
             mu: Vec::new(),
+            redundant: Vec::new(),
+            basis: nalgebra::DMatrix::zeros(0, 0),
+            lambda_p: Vec::new(),
+            force: Vec::new(),
+            force_p: Vec::new(),
         }
     }
 
@@ -120,10 +135,16 @@ impl LeastWork {
             self.r.resize(jac.nrows, 0.0);
             self.mu.resize(jac.nrows, 0.0);
             self.dx.resize(jac.ncols, 0.0);
+            self.force.resize(jac.ncols, 0.0);
+            self.force_p.resize(jac.ncols, 0.0);
         }
         let mut lambda_eps = std::mem::take(&mut self.lambda_eps);
         let mut dense = false;
-        let mut solved = self.split(model, jac, f, &mut lambda_eps, lambda, dense);
+        let mut solved = if self.solver.name() == "sparse" {
+            self.split_by_self_stress(model, jac, f, &mut lambda_eps, lambda)
+        } else {
+            self.split(model, jac, f, &mut lambda_eps, lambda, dense)
+        };
         if let Ok(false) = solved {
             // (an inexact sparse split: the dense SVD's, where it is affordable)
             if jac.ncols <= model.solver.rank_check_max_coords {
@@ -145,6 +166,128 @@ impl LeastWork {
             return Err(SolverError::NonFinite("least-work multipliers".into()));
         }
         Ok(())
+    }
+
+    /// The split by an explicit basis of the states of self-stress (the
+    /// sparse backend, whose basic solve finds the redundant rows and is
+    /// exact on the others). Every split is lambda = lambda_p + N s:
+    ///
+    /// - lambda_p: the basic solve's multipliers with A^T lambda_p = f (the
+    ///   rows found redundant at zero), mu of S_K mu = A_K M^-1 f;
+    /// - column j of N, for redundant row j: the self-stress e_j - t_j with
+    ///   A_K^T t_j = a_j^T (a_j: row j, A_K: the kept rows), so A^T N = 0,
+    ///   t_j from the same factorization, S_K t_j = A_K M^-1 a_j^T;
+    ///
+    /// and least work is the small weighted least-squares problem
+    ///
+    ///   s = argmin | C^1/2 (lambda_p + N s) |,
+    ///
+    /// solved by a QR of C^1/2 N (k columns, one per redundant row: its
+    /// conditioning is not squared as in the normal equations or in S_w),
+    /// at eps and eps / 2 for the rigid rows with the Richardson step of
+    /// `split`. Ok(whether exact: the probe's rank held and A^T lambda = f
+    /// to `FEASIBLE_REL`).
+    fn split_by_self_stress(
+        &mut self,
+        model: &Model,
+        jac: &Jacobian,
+        f: &[f64],
+        lambda_eps: &mut [f64],
+        lambda: &mut [f64],
+    ) -> Result<bool, SolverError> {
+        let m = jac.nrows;
+        let inv_mass = &model.inv_mass;
+        self.solver.forget();
+        self.solver.factor(jac, inv_mass, SolveMode::Basic)?;
+        let mut redundant = std::mem::take(&mut self.redundant);
+        self.solver.redundant_rows(&mut redundant);
+        self.redundant = redundant;
+        if let Some(kept) = self.solver.kept_rows() {
+            if self.solver.pivot_rank() != Some(kept.len()) {
+                return Ok(false);
+            }
+        }
+        // lambda_p
+        for ((d, fi), im) in self.dx.iter_mut().zip(f).zip(inv_mass) {
+            *d = fi * im;
+        }
+        jac.mul(&self.dx, &mut self.r);
+        let report = self
+            .solver
+            .correction(jac, inv_mass, &self.r, &mut self.dx, lambda)?;
+        if !report.converged || report.least_squares {
+            return Ok(false);
+        }
+        // (the joint forces the split must keep: f where f is in the range
+        // of A^T, else its projection, the dense SVD's least squares too)
+        jac.mul_t(lambda, &mut self.force_p);
+        let k = self.redundant.len();
+        if k > 0 {
+            // N, column by column
+            self.basis = nalgebra::DMatrix::zeros(m, k);
+            for (col, &j) in self.redundant.iter().enumerate() {
+                self.r.fill(0.0);
+                self.r[j] = 1.0;
+                jac.mul_t(&self.r, &mut self.force);
+                for (d, im) in self.force.iter_mut().zip(inv_mass) {
+                    *d *= im;
+                }
+                jac.mul(&self.force, &mut self.r);
+                let report =
+                    self.solver
+                        .correction(jac, inv_mass, &self.r, &mut self.dx, &mut self.mu)?;
+                if !report.converged || report.least_squares {
+                    return Ok(false);
+                }
+                let mut column = self.basis.column_mut(col);
+                for (c, t) in column.iter_mut().zip(&self.mu) {
+                    *c = -t;
+                }
+                column[j] = 1.0;
+            }
+            // the least-squares problem at eps and eps / 2, extrapolated
+            self.lambda_p.clear();
+            self.lambda_p.extend_from_slice(lambda);
+            for (slot, eps) in [RIGID_ROW_EPS, 0.5 * RIGID_ROW_EPS].into_iter().enumerate() {
+                for (w, c) in self.weight.iter_mut().zip(&self.compliance) {
+                    // (relative to the stiffest member's: rigid rows at eps)
+                    let rel = if c.is_finite() {
+                        c / model.stiffest_compliance_m_per_n
+                    } else {
+                        eps
+                    };
+                    *w = rel.sqrt();
+                }
+                let g =
+                    nalgebra::DMatrix::from_fn(m, k, |i, c| self.weight[i] * self.basis[(i, c)]);
+                let h = nalgebra::DVector::from_fn(m, |i, _| self.weight[i] * self.lambda_p[i]);
+                let qr = g.qr();
+                let b = qr.q().transpose() * h;
+                let Some(s) = qr.r().solve_upper_triangular(&b) else {
+                    return Ok(false);
+                };
+                let target: &mut [f64] = if slot == 0 { lambda_eps } else { lambda };
+                let split = &self.basis * s;
+                for ((l, p), ns) in target.iter_mut().zip(&self.lambda_p).zip(split.iter()) {
+                    *l = p - ns;
+                }
+            }
+            for (l, le) in lambda.iter_mut().zip(lambda_eps.iter()) {
+                *l = 2.0 * *l - le; // Richardson, as in `split`
+            }
+        }
+        // A^T lambda as A^T lambda_p (A^T N = 0), relative to the size of
+        // its terms
+        jac.mul_t(lambda, &mut self.force);
+        let amax = jac.values.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+        let lmax = lambda.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+        let fmax = self.force_p.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+        let off = self
+            .force
+            .iter()
+            .zip(&self.force_p)
+            .fold(0.0f64, |a, (g, fp)| a.max((g - fp).abs()));
+        Ok(off <= FEASIBLE_REL * (fmax + amax * lmax))
     }
 
     /// The split at eps and eps / 2 and their Richardson extrapolation into
@@ -228,3 +371,8 @@ impl LeastWork {
 /// member's, at the first of the two solves whose Richardson extrapolation
 /// gives the rigid limit (see the module notes).
 const RIGID_ROW_EPS: f64 = 1e-6;
+
+/// A split whose joint forces A^T lambda are off f by more than this,
+/// relative to |f| + max|A| max|lambda| (roundoff leaves ~1e-15), is not
+/// exact.
+const FEASIBLE_REL: f64 = 1e-10;

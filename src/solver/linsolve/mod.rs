@@ -201,6 +201,13 @@ pub trait ConstraintSolver: Send {
     fn kept_rows(&self) -> Option<&[usize]> {
         None
     }
+    /// The rows a basic solve leaves at zero into `out` (ascending): those
+    /// the probe took as redundant and those the last basic factorization
+    /// rejected (a rank drop since the probe); false where the backend drops
+    /// none (its solves return minimum-norm multipliers).
+    fn redundant_rows(&self, _out: &mut Vec<usize>) -> bool {
+        false
+    }
     /// Rank of A by pivot rejection (redundant rows found by a factorization),
     /// at the last basic factorization: far cheaper than an SVD and equal to it
     /// on well-conditioned trusses, but on a nearly singular one (a 360-sided

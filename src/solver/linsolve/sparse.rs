@@ -1266,6 +1266,25 @@ impl ConstraintSolver for SparseSchur {
         self.reduced.as_ref().map(|r| r.rows.as_slice())
     }
 
+    fn redundant_rows(&self, out: &mut Vec<usize>) -> bool {
+        out.clear();
+        let Some(reduced) = self.reduced.as_ref() else {
+            return false;
+        };
+        let slot = &self.slots[self.active];
+        let mut is_zero = vec![true; self.sig_rows];
+        for &r in &reduced.rows {
+            is_zero[r] = false;
+        }
+        if slot.kind == SlotKind::Rejecting && slot.valid {
+            for r in reduced.rejected_rows(&slot.ldlt) {
+                is_zero[r] = true;
+            }
+        }
+        out.extend((0..is_zero.len()).filter(|&r| is_zero[r]));
+        true
+    }
+
     fn accelerations(
         &mut self,
         jac: &Jacobian,
