@@ -270,11 +270,12 @@ pub fn held_short(model: &Model, x: &[f64], locked: &[bool], min_gap_m: f64) -> 
         return Vec::new();
     }
     jac.fill(model, x);
-    let svd = jac.to_dense().svd(false, true);
-    let v_t = svd.v_t.expect("V requested");
-    let smax = svd.singular_values.iter().cloned().fold(0.0, f64::max);
-    let basis: Vec<usize> = (0..svd.singular_values.len())
-        .filter(|&i| svd.singular_values[i] > super::rank::RANK_TOL * smax)
+    let Some((sigma, _, v_t)) = super::rank::thin_svd(&jac.to_dense()) else {
+        return Vec::new();
+    };
+    let smax = sigma.iter().cloned().fold(0.0, f64::max);
+    let basis: Vec<usize> = (0..sigma.len())
+        .filter(|&i| sigma[i] > super::rank::RANK_TOL * smax)
         .collect();
     let mut row = vec![0.0; 6];
     open.into_iter()

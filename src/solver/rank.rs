@@ -55,3 +55,21 @@ pub fn of_jacobian(jac: &Jacobian) -> usize {
     }
     numerical_rank(jac.to_dense().singular_values().as_slice())
 }
+
+/// The thin SVD B = U diag(sigma) V^T of a dense matrix (faer's: several
+/// times faster than nalgebra's at a few hundred coordinates): sigma in
+/// decreasing order, U (rows x p) and V^T (p x columns), p = min(rows,
+/// columns); None when the iteration does not converge.
+pub fn thin_svd(
+    b: &nalgebra::DMatrix<f64>,
+) -> Option<(Vec<f64>, nalgebra::DMatrix<f64>, nalgebra::DMatrix<f64>)> {
+    let fb = faer::Mat::<f64>::from_fn(b.nrows(), b.ncols(), |i, j| b[(i, j)]);
+    let svd = fb.thin_svd().ok()?;
+    let (u, v, s) = (svd.U(), svd.V(), svd.S().column_vector());
+    let p = s.nrows();
+    let sigma: Vec<f64> = (0..p).map(|k| s[k]).collect();
+    debug_assert!(sigma.windows(2).all(|w| w[0] >= w[1]), "faer orders sigma");
+    let u = nalgebra::DMatrix::from_fn(u.nrows(), p, |i, k| u[(i, k)]);
+    let vt = nalgebra::DMatrix::from_fn(p, v.nrows(), |k, j| v[(j, k)]);
+    Some((sigma, u, vt))
+}

@@ -74,14 +74,9 @@ impl ConstraintSolver for DenseNullSpace {
         if b.iter().any(|v| !v.is_finite()) {
             return Err(SolverError::NonFiniteJacobian);
         }
-        let svd = b.svd(true, true);
-        let (u, vt) = (svd.u.expect("u requested"), svd.v_t.expect("v_t requested"));
-        // nalgebra sorts singular values in decreasing order.
-        let mut order: Vec<usize> = (0..svd.singular_values.len()).collect();
-        order.sort_by(|&a, &b| svd.singular_values[b].total_cmp(&svd.singular_values[a]));
-        self.sigma = order.iter().map(|&k| svd.singular_values[k]).collect();
-        self.u = DMatrix::from_fn(u.nrows(), order.len(), |i, k| u[(i, order[k])]);
-        self.vt = DMatrix::from_fn(order.len(), vt.ncols(), |k, j| vt[(order[k], j)]);
+        let (sigma, u, vt) = crate::solver::rank::thin_svd(&b)
+            .ok_or_else(|| SolverError::NonFinite("SVD of the Jacobian (no convergence)".into()))?;
+        (self.sigma, self.u, self.vt) = (sigma, u, vt);
         self.rank = if jac.nrows == 0 {
             0
         } else {
