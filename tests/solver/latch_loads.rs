@@ -613,6 +613,13 @@ fn latch_impulses_account_for_the_energy_taken_on_either_backend() {
                 (lost - taken).abs() <= 1e-6 * taken,
                 "{file} {kind:?}: the events' losses {lost:e} J against the latches' {taken:e} J"
             );
+            // (the sparse splits by its own route, not redone by the dense SVD)
+            let f = &sim.solver_stats().fallbacks;
+            assert_eq!(
+                (f.least_work_dense, f.least_work_inexact),
+                (0, 0),
+                "{file} {kind:?}: splits redone densely / kept inexact"
+            );
             impulses.push(s.locks.iter().map(|ev| ev.impulse_ns).collect::<Vec<_>>());
         }
         for (d, sp) in impulses[0].iter().zip(&impulses[1]) {
