@@ -185,8 +185,10 @@ impl LeastWork {
     /// solved by a QR of C^1/2 N (k columns, one per redundant row: its
     /// conditioning is not squared as in the normal equations or in S_w),
     /// at eps and eps / 2 for the rigid rows with the Richardson step of
-    /// `split`. Ok(whether exact: the probe's rank held and A^T lambda = f
-    /// to `FEASIBLE_REL`).
+    /// `split`. Ok(whether exact: the kept rows held their rank and
+    /// A^T lambda = A^T lambda_p to `FEASIBLE_REL`; A^T lambda_p is f, or
+    /// its projection onto the range of A^T where f has a part off it, as
+    /// the dense SVD's least squares gives).
     fn split_by_self_stress(
         &mut self,
         model: &Model,
@@ -372,7 +374,7 @@ impl LeastWork {
 /// gives the rigid limit (see the module notes).
 const RIGID_ROW_EPS: f64 = 1e-6;
 
-/// A split whose joint forces A^T lambda are off f by more than this,
-/// relative to |f| + max|A| max|lambda| (roundoff leaves ~1e-15), is not
-/// exact.
+/// A split whose joint forces A^T lambda are off those of lambda_p by more
+/// than this, relative to |A^T lambda_p| + max|A| max|lambda| (roundoff
+/// leaves ~1e-13 on the bundled ring), is not exact.
 const FEASIBLE_REL: f64 = 1e-10;
