@@ -255,6 +255,18 @@ pub struct SolverSettings {
     /// Largest model (coordinates) whose mobility is counted by a dense SVD
     /// when the backend reveals no rank.
     pub rank_check_max_coords: usize,
+
+    // --- least-work split of redundant forces (`crate::solver::least_work`) ---
+    /// Compliance of the rows that are not members (supports, hinges,
+    /// coplanarity), relative to the stiffest member's, in the first of the
+    /// two solves whose Richardson extrapolation (eps, eps / 2) gives their
+    /// rigid limit.
+    pub least_work_rigid_row_eps: f64,
+    /// A split on the sparse backend is exact when its joint forces A^T
+    /// lambda are the given f to this (or, where f has a part off the range
+    /// of A^T, those of the basic solve), relative to |A^T lambda_p| +
+    /// max|A| max|lambda|; else the dense SVD redoes it.
+    pub least_work_feasible_rel: f64,
 }
 
 impl Default for SolverSettings {
@@ -311,6 +323,8 @@ impl Default for SolverSettings {
             latch_immobile_rel: 1e-9,
             motor_pivot_rel: 1e-12,
             rank_check_max_coords: 1500,
+            least_work_rigid_row_eps: 1e-6,
+            least_work_feasible_rel: 1e-10,
         }
     }
 }
@@ -377,6 +391,8 @@ impl SolverSettings {
             ("latch_immobile_rel", self.latch_immobile_rel),
             ("rigid_row_compliance_rel", self.rigid_row_compliance_rel),
             ("motor_pivot_rel", self.motor_pivot_rel),
+            ("least_work_rigid_row_eps", self.least_work_rigid_row_eps),
+            ("least_work_feasible_rel", self.least_work_feasible_rel),
         ];
         let bad = |key, value, rule| Err(SettingsError { key, value, rule });
         for (key, v) in positive {
@@ -411,6 +427,8 @@ impl SolverSettings {
             ("step_end_rel", self.step_end_rel),
             ("rigid_row_compliance_rel", self.rigid_row_compliance_rel),
             ("motor_pivot_rel", self.motor_pivot_rel),
+            ("least_work_rigid_row_eps", self.least_work_rigid_row_eps),
+            ("least_work_feasible_rel", self.least_work_feasible_rel),
         ] {
             if v >= 1.0 {
                 return bad(key, v, SettingsRule::BelowOne);
