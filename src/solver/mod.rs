@@ -13,6 +13,7 @@ pub mod least_work;
 pub mod linsolve;
 pub mod mobility;
 pub mod model;
+pub mod modes;
 pub mod rank;
 pub mod settings;
 pub mod simulator;

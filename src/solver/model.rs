@@ -324,6 +324,15 @@ impl Model {
         })
     }
 
+    /// A latched sleeve's row compliance (m/N): its tube's L/EA, plus 1/k
+    /// of a compliant latch in series with it.
+    pub fn latched_sleeve_compliance_m_per_n(&self, e: usize) -> f64 {
+        let el = &self.elements[e];
+        let mut tube = [f64::NAN];
+        el.row_compliance_m_per_n(true, self.axial_stiffness_n, &mut tube);
+        tube[0] + el.latch_spring().map_or(0.0, |(k, _)| 1.0 / k)
+    }
+
     pub fn n_joints(&self) -> usize {
         self.joints.len()
     }

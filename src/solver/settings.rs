@@ -267,6 +267,15 @@ pub struct SolverSettings {
     /// of A^T, those of the basic solve), relative to |A^T lambda_p| +
     /// max|A| max|lambda|; else the dense SVD redoes it.
     pub least_work_feasible_rel: f64,
+
+    // --- natural modes (`crate::solver::modes`, `analyze --modes`) ---
+    /// A mode whose omega^2 is at most this fraction of the largest
+    /// eigenvalue's magnitude is a mechanism (zero frequency).
+    pub modes_mechanism_rel: f64,
+    /// The preload's least-work split must carry the joint forces to this
+    /// (|A^T lambda - f| / |f|); beyond it the state is not an equilibrium
+    /// of the locked truss and no modes are given.
+    pub modes_equilibrium_rel: f64,
 }
 
 impl Default for SolverSettings {
@@ -325,6 +334,8 @@ impl Default for SolverSettings {
             rank_check_max_coords: 1500,
             least_work_rigid_row_eps: 1e-6,
             least_work_feasible_rel: 1e-10,
+            modes_mechanism_rel: 1e-10,
+            modes_equilibrium_rel: 1e-8,
         }
     }
 }
@@ -393,6 +404,8 @@ impl SolverSettings {
             ("motor_pivot_rel", self.motor_pivot_rel),
             ("least_work_rigid_row_eps", self.least_work_rigid_row_eps),
             ("least_work_feasible_rel", self.least_work_feasible_rel),
+            ("modes_mechanism_rel", self.modes_mechanism_rel),
+            ("modes_equilibrium_rel", self.modes_equilibrium_rel),
         ];
         let bad = |key, value, rule| Err(SettingsError { key, value, rule });
         for (key, v) in positive {
@@ -429,6 +442,8 @@ impl SolverSettings {
             ("motor_pivot_rel", self.motor_pivot_rel),
             ("least_work_rigid_row_eps", self.least_work_rigid_row_eps),
             ("least_work_feasible_rel", self.least_work_feasible_rel),
+            ("modes_mechanism_rel", self.modes_mechanism_rel),
+            ("modes_equilibrium_rel", self.modes_equilibrium_rel),
         ] {
             if v >= 1.0 {
                 return bad(key, v, SettingsRule::BelowOne);

@@ -9,6 +9,7 @@ mod dynamics;
 mod elastic_members;
 mod elements_oracles;
 mod latch_loads;
+mod modes;
 mod sail_array;
 mod snapshot;
 mod solver_settings;

@@ -132,7 +132,7 @@ impl Core {
         // transient ends)
         for b in &self.jac.blocks {
             if model.elements[b.element].latch_spring().is_some() {
-                self.row_compliance[b.row0] = latched_sleeve_compliance(model, b.element);
+                self.row_compliance[b.row0] = model.latched_sleeve_compliance_m_per_n(b.element);
             }
         }
         let rigid = rigid_compliance(model);
@@ -426,13 +426,6 @@ fn rigid_compliance(model: &Model) -> f64 {
     model.solver.rigid_row_compliance_rel * model.stiffest_compliance_m_per_n
 }
 
-/// A latched sleeve's row compliance (m/N): L/EA, plus 1/k of a compliant latch.
-pub(super) fn latched_sleeve_compliance(model: &Model, e: usize) -> f64 {
-    let el = &model.elements[e];
-    let mut tube = [f64::NAN];
-    el.row_compliance_m_per_n(true, model.axial_stiffness_n, &mut tube);
-    tube[0] + el.latch_spring().map_or(0.0, |(k, _)| 1.0 / k)
-}
 
 /// A copy of a trial step, to come back to after trials of other lengths.
 #[derive(Default)]

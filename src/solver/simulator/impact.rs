@@ -112,7 +112,7 @@ impl Simulator {
         }
         self.share_one_mode_period();
         // A compliant latch the structure cannot move along has no transient of its own. With
-        // elastic members it latches now as its row (c = L/EA + 1/k, `latched_sleeve_compliance`),
+        // elastic members it latches now as its row (c = L/EA + 1/k, `Model::latched_sleeve_compliance_m_per_n`),
         // which holds the sleeve at its lock with the latch's stiffness whatever the others'
         // transients do. Rigid members: it waits for the others' transients (its rigid row would
         // be redundant to first order with theirs meanwhile); with none engaging it latches rigid.
@@ -440,7 +440,7 @@ impl Simulator {
             // (`Core::set_compliance`), strain 1/2 g^2/c; the rest of the spring's energy is the
             // latch's loss. Rigid: all of it.
             let held_j = if self.settings.elastic_members {
-                0.5 * g * g / super::core::latched_sleeve_compliance(&self.model, tr.element)
+                0.5 * g * g / self.model.latched_sleeve_compliance_m_per_n(tr.element)
             } else {
                 0.0
             };
