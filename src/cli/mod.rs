@@ -84,6 +84,13 @@ struct AnalyzeArgs {
     /// Write the counts, the redundant rows and the rows per element as JSON.
     #[arg(long)]
     json: Option<PathBuf>,
+    /// The first N natural frequencies and mode shapes of the deployed,
+    /// locked truss (docs/modes.md).
+    #[arg(long, value_name = "N")]
+    modes: Option<usize>,
+    /// Draw the first modes (up to 6) as an SVG (needs --modes).
+    #[arg(long, value_name = "FILE", requires = "modes")]
+    modes_svg: Option<PathBuf>,
 }
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
@@ -431,6 +438,9 @@ pub struct AnalyzeJson {
     cannot_deploy: Option<String>,
     initial: mobility::Mobility,
     locked: mobility::Mobility,
+    /// `analyze --modes N`: the deployed truss's natural modes (absent otherwise).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    modes: Option<crate::solver::modes::Modes>,
 }
 
 /// Refuses a geometry whose Jacobian is not finite (the SVD of the rank
@@ -467,8 +477,15 @@ fn analyze(a: AnalyzeArgs) -> Result<(), Failure> {
     if let Some(j) = &a.json {
         output::check_outputs(&[a.model.as_path()], &[("--json", j.as_path())])?;
     }
+    if let Some(svg) = &a.modes_svg {
+        output::check_outputs(&[a.model.as_path()], &[("--modes-svg", svg.as_path())])?;
+    }
+    if a.modes == Some(0) {
+        return Err(Failure::input("--modes 0: ask for at least one mode".to_string()));
+    }
     let n_joints = loaded.model.n_joints();
-    let report = analysis(loaded, &a.model.display().to_string())?;
+    let file = a.model.display().to_string();
+    let mut report = analysis(loaded, &file)?;
     let (before, after, geometry) = (&report.initial, &report.locked, report.locked_geometry);
     let cannot_deploy = &report.cannot_deploy;
     say!(
@@ -526,10 +543,46 @@ fn analyze(a: AnalyzeArgs) -> Result<(), Failure> {
             }
         );
     }
+    if let Some(count) = a.modes {
+        let model = load(&a.model)?.model;
+        let lin = crate::solver::modes::Linearization::deployed(&model);
+        let modes = crate::solver::modes::natural_modes(&model, &lin, count)
+            .map_err(|e| Failure::run(format!("{file}: no modes: {e}")))?;
+        print_modes(&modes);
+        if let Some(svg) = &a.modes_svg {
+            plot::modes_svg(svg, &model, &lin.x, &modes).map_err(Failure::run)?;
+            say!("mode shapes drawn in {}", svg.display());
+        }
+        report.modes = Some(modes);
+    }
     if let Some(j) = &a.json {
         write_json(j, &report)?;
     }
     Ok(())
+}
+
+/// The table of `analyze --modes`.
+fn print_modes(m: &crate::solver::modes::Modes) {
+    say!(
+        "natural modes ({} geometry, every sleeve latched): {} degrees of freedom on the rigid rows' tangent space ({} coordinates, {} rigid rows of rank {}), {} elastic member rows, preload up to {:.4e} N",
+        m.geometry, m.degrees_of_freedom, m.coordinates, m.rigid_rows, m.rigid_rank, m.member_rows, m.max_preload_n
+    );
+    if m.mechanisms > 0 || m.unstable > 0 {
+        say!("{} mechanisms (zero frequency), {} unstable (omega^2 < 0)", m.mechanisms, m.unstable);
+    }
+    say!("{:>5} {:>15} {:>11} {:<18} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7}", "mode", "frequency_hz", "kind", "motion", "tx", "ty", "tz", "rx", "ry", "rz");
+    for (i, mode) in m.modes.iter().enumerate() {
+        let kind = match mode.kind {
+            crate::solver::modes::ModeKind::Elastic => "elastic",
+            crate::solver::modes::ModeKind::Mechanism => "mechanism",
+            crate::solver::modes::ModeKind::Unstable => "unstable",
+        };
+        let p = mode.participation;
+        say!(
+            "{:>5} {:>15.6e} {:>11} {:<18} {:>7.3} {:>7.3} {:>7.3} {:>7.3} {:>7.3} {:>7.3}",
+            i + 1, mode.frequency_hz, kind, mode.motion, p[0], p[1], p[2], p[3], p[4], p[5]
+        );
+    }
 }
 
 /// `analyze` of a loaded model (`file` names it in errors): the mobility
@@ -565,6 +618,7 @@ pub fn analysis(loaded: model::LoadedModel, file: &str) -> Result<AnalyzeJson, F
         cannot_deploy,
         initial: before,
         locked: after,
+        modes: None,
     })
 }
 

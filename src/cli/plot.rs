@@ -344,10 +344,14 @@ pub fn snapshots(
     path: &Path,
     title: &str,
     members: &[(usize, usize, bool)],
-    frames: &[(f64, Vec<[f64; 3]>)],
-    reference: Option<&[[f64; 3]]>,
+    frames: &[(String, Vec<[f64; 3]>)],
+    reference: Option<(&[[f64; 3]], &str)>,
 ) -> Result<(), String> {
     let err = drawing(path);
+    let (reference, reference_label) = match reference {
+        Some((r, l)) => (Some(r), Some(l)),
+        None => (None, None),
+    };
     let proj = Projection::new(-55.0, 25.0);
     let n = frames.len().max(1);
     let cols = n.min(3);
@@ -413,13 +417,55 @@ pub fn snapshots(
         ))
         .map_err(&err)?;
         let panels = grid.split_evenly((rows, cols));
-        for (panel, (t, x)) in panels.iter().zip(frames) {
-            draw_frame(panel, (pw, ph), *t, x, members, reference, &to_px).map_err(&err)?;
+        for (panel, (label, x)) in panels.iter().zip(frames) {
+            draw_frame(panel, (pw, ph), label, x, members, reference, &to_px).map_err(&err)?;
         }
-        draw_footer(&footer, w, scale, reference.is_some(), &proj).map_err(&err)?;
+        draw_footer(&footer, w, scale, reference_label, &proj).map_err(&err)?;
         root.present().map_err(&err)?;
     }
     write_svg(path, svg)
+}
+
+/// `analyze --modes-svg`: the first modes (up to 6), each drawn over the
+/// undeformed truss with its largest joint displacement a tenth of the
+/// truss's size.
+pub fn modes_svg(
+    path: &Path,
+    model: &Model,
+    x: &[f64],
+    modes: &crate::solver::modes::Modes,
+) -> Result<(), String> {
+    let base = to_points(x);
+    let (mut lo, mut hi) = ([f64::INFINITY; 3], [f64::NEG_INFINITY; 3]);
+    for p in &base {
+        for k in 0..3 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
+    let size = (0..3).map(|k| hi[k] - lo[k]).fold(0.0, f64::max).max(1e-9);
+    let amplitude = 0.1 * size;
+    let frames: Vec<(String, Vec<[f64; 3]>)> = modes
+        .modes
+        .iter()
+        .take(6)
+        .enumerate()
+        .map(|(i, m)| {
+            let shape = base
+                .iter()
+                .zip(&m.shape)
+                .map(|(p, u)| [p[0] + amplitude * u[0], p[1] + amplitude * u[1], p[2] + amplitude * u[2]])
+                .collect();
+            (format!("mode {}: {:.4} Hz, {}", i + 1, m.frequency_hz, m.motion), shape)
+        })
+        .collect();
+    snapshots(
+        path,
+        &format!("{}: natural modes", model.name),
+        &members(model),
+        &frames,
+        Some((&base, "undeformed")),
+    )
 }
 
 /// Joint position to panel pixel (None for a non-finite position).
@@ -430,7 +476,7 @@ type DrawResult = Result<(), DrawingAreaErrorKind<std::io::Error>>;
 fn draw_frame(
     panel: &Area,
     (pw, ph): (u32, u32),
-    t: f64,
+    label: &str,
     x: &[[f64; 3]],
     members: &[(usize, usize, bool)],
     reference: Option<&[[f64; 3]]>,
@@ -441,7 +487,7 @@ fn draw_frame(
         RGBColor(200, 200, 200).stroke_width(1),
     ))?;
     panel.draw(&Text::new(
-        format!("t = {t:.2} s"),
+        label.to_string(),
         (14, 12),
         style(17, HPos::Left, VPos::Top),
     ))?;
@@ -492,7 +538,7 @@ fn draw_footer(
     footer: &Area,
     w: u32,
     scale: f64,
-    reference: bool,
+    reference: Option<&str>,
     proj: &Projection,
 ) -> DrawResult {
     let y = 24;
@@ -502,8 +548,8 @@ fn draw_footer(
         (MEMBER_COLOR, 1, "bars and rods"),
         (SLEEVE_COLOR, 2, "sleeves"),
     ];
-    if reference {
-        entries.push((REFERENCE_COLOR, 1, "reference deployed geometry"));
+    if let Some(label) = reference {
+        entries.push((REFERENCE_COLOR, 1, label));
     }
     for (color, width, label) in entries {
         footer.draw(&PathElement::new(
@@ -995,12 +1041,17 @@ impl Recorder {
         if let Some((path, frames)) = &self.snapshots {
             if frames.seen > 0 {
                 let reference = model.reference.as_deref().map(to_points);
+                let frames: Vec<(String, Vec<[f64; 3]>)> = frames
+                    .pick(SNAPSHOT_FRAMES)
+                    .into_iter()
+                    .map(|(t, x)| (format!("t = {t:.2} s"), x))
+                    .collect();
                 snapshots(
                     path,
                     &format!("{}: deployment", model.name),
                     &members(model),
-                    &frames.pick(SNAPSHOT_FRAMES),
-                    reference.as_deref(),
+                    &frames,
+                    reference.as_deref().map(|r| (r, "reference deployed geometry")),
                 )?;
             }
         }

@@ -7,6 +7,7 @@ mod docs;
 mod history;
 mod malformed_corpus;
 mod model_errors;
+mod modes;
 mod motor_speed;
 mod report;
 mod run_outcomes;
