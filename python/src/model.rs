@@ -4,7 +4,7 @@
 use crate::{json_loads, model_error, model_error_msg};
 use numpy::ndarray::Array2;
 use numpy::{IntoPyArray, PyArray2};
-use pyo3::exceptions::{PyKeyError, PyValueError};
+use pyo3::exceptions::{PyKeyError, PyRuntimeError, PyValueError};
 use pyo3::prelude::*;
 use truss_deploy::model::{self, LoadedModel, ModelDoc};
 use truss_deploy::solver::elements::{Param, AXIAL_STIFFNESS_KEY, REGISTRY};
@@ -656,6 +656,23 @@ impl PyModel {
             .detach(|| truss_deploy::cli::analysis(loaded, &file))
             .map_err(|f| model_error_msg(py, &file, f.message))?;
         json_loads(py, &serde_json::to_string(&report).expect("serializes"))
+    }
+
+    /// `truss-deploy analyze --modes COUNT`: the deployed truss's first
+    /// `count` natural modes (the `modes` of `analyze --json`, docs/modes.md).
+    fn modes<'py>(&self, py: Python<'py>, count: usize) -> PyResult<Bound<'py, PyAny>> {
+        if count == 0 {
+            return Err(PyValueError::new_err("modes(0): ask for at least one mode"));
+        }
+        let loaded = self.loaded(py)?;
+        let file = self.source_name();
+        let modes = py
+            .detach(|| {
+                let lin = truss_deploy::solver::modes::Linearization::deployed(&loaded.model);
+                truss_deploy::solver::modes::natural_modes(&loaded.model, &lin, count)
+            })
+            .map_err(|e| PyRuntimeError::new_err(format!("{file}: no modes: {e}")))?;
+        json_loads(py, &serde_json::to_string(&modes).expect("serializes"))
     }
 }
 

@@ -94,6 +94,16 @@ def test_analyze_is_the_cli_report(cli, tmp_path, name):
     assert td.load(MODELS / f"{name}.toml").analyze() == json.loads(out.read_text())
 
 
+def test_modes_are_the_cli_modes(cli, tmp_path):
+    out = tmp_path / "m.json"
+    cli("analyze", MODELS / "double_ring.toml", "--modes", "4", "--json", out)
+    modes = td.load(MODELS / "double_ring.toml").modes(4)
+    assert modes == json.loads(out.read_text())["modes"]
+    assert [m["kind"] for m in modes["modes"]] == ["elastic"] * 4
+    with pytest.raises(ValueError, match="at least one mode"):
+        td.load(MODELS / "double_ring.toml").modes(0)
+
+
 def test_a_malformed_model_names_the_file_the_line_and_the_key(tmp_path, cli):
     text = (MODELS / "pantograph_mast.toml").read_text().replace("mass_kg = 0.15", 'mass_kg = "heavy"', 1)
     bad = tmp_path / "bad.toml"

@@ -139,6 +139,8 @@ class Model:
     def set_element_param(self, name: str, key: str, value: Union[float, str, None]) -> int: ...
     def analyze(self) -> Dict[str, Any]:
         """`truss-deploy analyze --json`: rows, rank, mechanisms, self_stress, *_locked, ..."""
+    def modes(self, count: int) -> Dict[str, Any]:
+        """`truss-deploy analyze --modes COUNT`: the deployed truss's first natural modes (docs/modes.md)."""
 
 class Snapshot:
     """A simulation's complete state; picklable (its JSON)."""
