@@ -69,6 +69,11 @@ pub struct RunSummary {
     pub energy_balance_rel_error: f64,
     pub dof_initial: usize,
     pub dof_final: usize,
+    /// The deployed, latched truss's first natural frequency (Hz): a
+    /// property of the model, not of the run (`solver::modes::
+    /// deployed_first_frequency_hz`, docs/modes.md); null beyond
+    /// `rank_check_max_coords` coordinates.
+    pub first_frequency_hz: Option<f64>,
     pub kinetic_energy_j: f64,
     pub energy: Energy,
     pub locks: Vec<LockEvent>,
@@ -474,6 +479,7 @@ pub fn summarize(
         energy_balance_rel_error: s.energy.balance_rel_error(ke),
         dof_initial,
         dof_final: s.mechanisms,
+        first_frequency_hz: crate::solver::modes::deployed_first_frequency_hz(m),
         kinetic_energy_j: ke,
         energy: s.energy.clone(),
         locks: s.locks.clone(),

@@ -568,6 +568,9 @@ fn print_summary(s: &SimulateJson) {
         s.dof_initial,
         s.dof_final
     );
+    if let Some(f) = s.first_frequency_hz {
+        say!("first frequency  {f:.6e} Hz (deployed, latched: analyze --modes)");
+    }
     let st = &s.solver_stats;
     say!(
         "solver           {} sub-steps ({} halvings), {} constraint solves ({} unconverged)",

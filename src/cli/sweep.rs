@@ -286,6 +286,9 @@ fn print_summary(s: &Summary) {
     };
     q("deploy time", "s", &s.deploy_time_s);
     q("largest latch load", &s.latch_load_unit, &s.latch_load);
+    if s.first_frequency_hz.is_some() {
+        q("first frequency", "Hz", &s.first_frequency_hz);
+    }
     if !s.last_latch.is_empty() {
         let l: Vec<String> = s
             .last_latch

@@ -459,6 +459,27 @@ pub fn natural_modes(model: &Model, lin: &Linearization, count: usize) -> Result
     })
 }
 
+/// The deployed, latched truss's first elastic natural frequency (Hz; the
+/// mechanisms and unstable modes before it skipped), as `simulate`'s and a
+/// sweep's summaries report it: None beyond `rank_check_max_coords`
+/// coordinates (the dense decompositions grow as their cube), or where the
+/// modes cannot be had (the deployed state is no equilibrium) or there is
+/// no elastic mode.
+pub fn deployed_first_frequency_hz(model: &Model) -> Option<f64> {
+    if model.n_coords() > model.solver.rank_check_max_coords {
+        return None;
+    }
+    let lin = Linearization::deployed(model);
+    let first = natural_modes(model, &lin, 1).ok()?;
+    let skip = first.mechanisms + first.unstable;
+    let modes = if skip == 0 { first } else { natural_modes(model, &lin, skip + 1).ok()? };
+    modes
+        .modes
+        .iter()
+        .find(|m| m.kind == ModeKind::Elastic)
+        .map(|m| m.frequency_hz)
+}
+
 /// The six rigid-body velocity fields (translations x, y, z; rotations about
 /// x, y, z through the centre of mass) at `x`.
 fn rigid_body_fields(model: &Model, x: &[f64]) -> [Vec<f64>; 6] {

@@ -240,6 +240,7 @@ pub fn to_parquet(
         rows.iter().map(|r| r.last_latch.clone()).collect(),
         false,
     ));
+    cols.push(opt_f64("first_frequency_hz", f(|r| r.first_frequency_hz)));
     let message = format!(
         "message sweep {{ {} }}",
         cols.iter()

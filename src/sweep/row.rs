@@ -79,6 +79,8 @@ pub struct Row {
     pub max_latch_peak_force_n: Option<f64>,
     /// The sleeve that latched last.
     pub last_latch: Option<String>,
+    /// The deployed truss's first natural frequency (Hz; `RunSummary::first_frequency_hz`).
+    pub first_frequency_hz: Option<f64>,
 }
 
 /// Stop reasons of rows that ran as asked (the sweep's exit status 0).
@@ -120,6 +122,7 @@ impl Row {
             max_latch_impulse_ns: None,
             max_latch_peak_force_n: None,
             last_latch: None,
+            first_frequency_hz: None,
         }
     }
 
@@ -174,6 +177,7 @@ impl Row {
                 .max_by(|a, b| a.time_s.total_cmp(&b.time_s))
                 .map(|l| l.name.clone()),
             latches,
+            first_frequency_hz: s.first_frequency_hz,
         }
     }
 

@@ -138,6 +138,10 @@ pub struct Summary {
     /// latches are compliant, else impulse (N s); `latch_load_unit` says which.
     pub latch_load: Option<Quantiles>,
     pub latch_load_unit: String,
+    /// The deployed truss's first natural frequency (Hz) over the samples
+    /// that have one.
+    #[serde(default)]
+    pub first_frequency_hz: Option<Quantiles>,
     /// How often each sleeve latched last (deployed samples), most often first.
     pub last_latch: Vec<(String, u64)>,
     pub correlations: Vec<Correlation>,
@@ -229,6 +233,9 @@ pub fn summarize(
         deploy_time_s: Quantiles::of(&times),
         latch_load: Quantiles::of(&loads),
         latch_load_unit: if compliant { "N" } else { "N s" }.into(),
+        first_frequency_hz: Quantiles::of(
+            &rows.iter().filter_map(|r| r.first_frequency_hz).collect::<Vec<_>>(),
+        ),
         last_latch,
         drives_deploy_time: strongest(&correlations, |c| c.spearman_deploy_time),
         drives_latch_load: strongest(&correlations, |c| c.spearman_latch_load),
