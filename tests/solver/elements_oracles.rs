@@ -323,6 +323,28 @@ fn centroid_fixture() -> Fixture {
     }
 }
 
+fn rigid_body_fixture() -> Fixture {
+    // an octahedron's +x, -x, +y, +z, then -y, -z and two mount points
+    let pts = [
+        [0.5, 0.0, 0.0],
+        [-0.5, 0.0, 0.0],
+        [0.0, 0.5, 0.0],
+        [0.0, 0.0, 0.5],
+        [0.0, -0.5, 0.0],
+        [0.0, 0.0, -0.5],
+        [1.2, 0.1, 0.3],
+        [1.1, -0.2, 0.9],
+    ];
+    let idx = [0, 1, 2, 3, 4, 5, 6, 7];
+    let placed: Vec<(usize, [f64; 3])> = idx.iter().copied().zip(pts).collect();
+    Fixture {
+        label: "rigid_body",
+        spec: spec("rigid_body", &idx, &[]),
+        x0: layout(8, &placed),
+        size: 1.0,
+    }
+}
+
 fn hinge_axis_fixture() -> Fixture {
     // hinge p, post end q above it, radial member end r square to the post, chord end a
     let pts = [
@@ -386,6 +408,7 @@ fn all_fixtures() -> Vec<Fixture> {
         coplanar_fixture(),
         perpendicular_fixture(),
         centroid_fixture(),
+        rigid_body_fixture(),
         hinge_axis_fixture(),
         frame_hinge_fixture(),
         sync_hinge_fixture("both"),
@@ -630,6 +653,7 @@ fn row_counts_match_the_documented_element_rows() {
         ("coplanar", 1),
         ("perpendicular", 1),
         ("centroid", 2),
+        ("rigid_body", 3 * 8 - 6),
         ("hinge_axis", 1),
         ("frame_hinge", 1),
         ("sync_hinge both", 2),
@@ -721,6 +745,22 @@ fn end_stop_derivatives_match_finite_differences() {
         long > 0 && short > 0,
         "long {long}, short {short}, free {free}"
     );
+}
+
+/// A rigid body's 3k - 6 distance rows: finite differences agree, and they
+/// leave exactly the six rigid motions (rank 3k - 6 at its geometry).
+#[test]
+fn rigid_body_derivatives_match_finite_differences() {
+    let f = rigid_body_fixture();
+    check_jacobian_fd(&f, 111);
+    assert!(check_convective_fd(&f, 112) > 1e-3);
+    let el = f.build();
+    let m = model(f.x0.clone(), vec![f.spec.clone()]);
+    let mut jac = Jacobian::pattern(&m, &vec![false; 1]);
+    jac.fill(&m, &f.x0);
+    let sv = jac.to_dense().singular_values();
+    let rank = sv.iter().filter(|s| **s > 1e-9 * sv.max()).count();
+    assert_eq!(rank, 3 * 8 - 6, "{}", el.name());
 }
 
 #[test]

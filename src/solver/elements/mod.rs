@@ -24,6 +24,7 @@ pub mod frame_hinge;
 pub mod hinge_axis;
 pub mod perpendicular;
 pub mod plate;
+pub mod rigid_body;
 pub mod scissor;
 pub mod sleeve;
 pub mod support;
@@ -335,6 +336,12 @@ pub const REGISTRY: &[(&str, &str, &[&str], Builder)] = &[
         "synchronizing gears at hinge p: members p-a and p-b fold as mirror images (joints p, q, r, a, b)",
         sync_hinge::PARAMS,
         sync_hinge::build,
+    ),
+    (
+        "rigid_body",
+        "any number of joints (at least 4, the first four not in one plane) moving as one rigid body, e.g. a spacecraft bus with the truss's mount points (3k - 6 rigid distance rows)",
+        rigid_body::PARAMS,
+        rigid_body::build,
     ),
     (
         "support",
