@@ -135,8 +135,17 @@ fn a_spring_mass_chain_has_the_closed_form_frequencies() {
 /// ends; the bars carry nothing: the cable's own geometric stiffness), or
 /// "compression" (the anchor on the other side: the bars push with T and
 /// the transverse omega^2 are the negatives, unstable).
+const STRING: (usize, f64, f64, f64, f64) = (6, 0.2, 0.05, 12.5, 1.0e6);
+
 fn beaded_string(by: &str) -> (Modes, usize, f64) {
-    let (n, l, m, t, ea) = (6usize, 0.2, 0.05, 12.5, 1.0e6);
+    let (n, l, m, t, _) = STRING;
+    let modes = modes_of(&beaded_string_text(by), n);
+    (modes, n, 2.0 * (t / (m * l)).sqrt())
+}
+
+/// The model file of `beaded_string`.
+fn beaded_string_text(by: &str) -> String {
+    let (n, l, m, t, ea) = STRING;
     let mut names: Vec<String> = vec!["A".into()];
     names.extend((1..=n).map(|i| format!("P{i}")));
     names.push("E".into());
@@ -180,9 +189,7 @@ fn beaded_string(by: &str) -> (Modes, usize, f64) {
         2.0 * t
     )
     .unwrap();
-    let modes = modes_of(&model_text("string", &joints, &rest), n);
-    let scale = 2.0 * (t / (m * l)).sqrt();
-    (modes, n, scale)
+    model_text("string", &joints, &rest)
 }
 
 fn check_string(modes: &Modes, n: usize, scale: f64, kind: ModeKind) {
@@ -223,4 +230,25 @@ fn a_chain_pushed_by_its_cable_is_unstable_by_the_same_amounts() {
         assert!(md.omega2_rad2_s2 < 0.0);
     }
     check_string(&rev, n, scale, ModeKind::Unstable);
+}
+
+/// The same string as a simulator's state at rest (its start: the consistent
+/// accelerations are zero, the multipliers the preload): the modes of
+/// `Linearization::of_state` are the closed form's, the state's cable
+/// segment tensions and multipliers (in its Jacobian's row order) taken as
+/// the run has them.
+#[test]
+fn a_simulators_state_at_rest_has_the_strings_modes() {
+    let (deployed, n, scale) = beaded_string("bars");
+    let text = beaded_string_text("bars");
+    let m = truss_deploy::model::parse(&text, "test.toml").unwrap().model;
+    let sim = truss_deploy::solver::Simulator::new(m, truss_deploy::solver::Options::default())
+        .expect("simulator");
+    let a_max = sim.state().a.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+    assert!(a_max < 1e-9, "the string starts at rest in equilibrium ({a_max:.2e} m/s^2)");
+    let lin = Linearization::of_state(sim.model(), sim.state());
+    assert_eq!(lin.geometry, "state");
+    let modes = natural_modes(sim.model(), &lin, n).expect("modes");
+    check_string(&modes, n, scale, ModeKind::Elastic);
+    close(modes.max_preload_n, deployed.max_preload_n, 1e-9, "the preload");
 }
