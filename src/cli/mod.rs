@@ -131,10 +131,21 @@ struct GenerateArgs {
     #[arg(long, conflicts_with_all = ["sync", "stow"])]
     bay_by_bay: bool,
     /// ring: how the ring is held: `hub` (at its centre; the synchronized ring's
-    /// default), `frame0` (synchronized ring, at post O0) or `post` (post O0 clamped to
-    /// a boom; the stowing ring's default).
+    /// default), `frame0` (synchronized ring, at post O0), `post` (post O0 clamped to
+    /// a boom; the stowing ring's default) or `bus` (post O0 clamped to a
+    /// free-floating spacecraft bus: no support, joint damping 0 unless --damping).
     #[arg(long)]
     mount: Option<String>,
+    /// ring, --mount bus: the bus's mass (kg; default 100).
+    #[arg(long)]
+    bus_mass_kg: Option<f64>,
+    /// ring, --mount bus: the bus's principal inertias about its centre along x, y, z
+    /// (kg m^2; default 10,12,14).
+    #[arg(long, value_delimiter = ',')]
+    bus_inertia: Option<Vec<f64>>,
+    /// ring, --mount bus: the bus centre's distance outward of post O0 (m; default 1.5).
+    #[arg(long)]
+    bus_offset_m: Option<f64>,
     /// sail: number of bays (1 to 100).
     #[arg(long, default_value_t = generate::sail::SailParams::default().bays)]
     bays: usize,
@@ -690,6 +701,9 @@ fn generate_doc(a: &GenerateArgs) -> Result<model::ModelDoc, Failure> {
         ("--stow", a.stow),
         ("--bay-by-bay", a.bay_by_bay),
         ("--mount", a.mount.is_some()),
+        ("--bus-mass-kg", a.bus_mass_kg.is_some()),
+        ("--bus-inertia", a.bus_inertia.is_some()),
+        ("--bus-offset-m", a.bus_offset_m.is_some()),
         ("--gear-stiffness", a.gear_stiffness.is_some()),
         ("--gear-damping", a.gear_damping.is_some()),
         ("--stroke-stops", a.stroke_stops.is_some()),
@@ -729,6 +743,18 @@ fn generate_doc(a: &GenerateArgs) -> Result<model::ModelDoc, Failure> {
             ));
         }
         Kind::Ring => {
+            let bus = a.mount.as_deref() == Some("bus");
+            if let Some(j) = a.bus_inertia.as_deref().filter(|j| j.len() != 3) {
+                return Err(Failure::input(format!(
+                    "--bus-inertia: give three principal inertias IXX,IYY,IZZ (kg m^2), got {}",
+                    j.len()
+                )));
+            }
+            if !bus && (a.bus_mass_kg.is_some() || a.bus_inertia.is_some() || a.bus_offset_m.is_some()) {
+                return Err(Failure::input(
+                    "--bus-mass-kg, --bus-inertia and --bus-offset-m describe the bus of --mount bus; give --mount bus".to_string(),
+                ));
+            }
             if a.deploy_deg.is_some() {
                 return Err(Failure::input(
                     "--deploy-deg: the ring has no deploy angle (it latches flat); \
@@ -749,7 +775,15 @@ fn generate_doc(a: &GenerateArgs) -> Result<model::ModelDoc, Failure> {
                 sides: a.sides,
                 tension_n: a.tension_n.unwrap_or(d.tension_n),
                 friction_mu: a.mu.unwrap_or(d.friction_mu),
-                damping_n_s_per_m: a.damping.unwrap_or(d.damping_n_s_per_m),
+                damping_n_s_per_m: a.damping.unwrap_or(if bus { 0.0 } else { d.damping_n_s_per_m }),
+                bus: generate::ring::BusParams {
+                    mass_kg: a.bus_mass_kg.unwrap_or(d.bus.mass_kg),
+                    inertia_kg_m2: a
+                        .bus_inertia
+                        .as_deref()
+                        .map_or(d.bus.inertia_kg_m2, |v| [v[0], v[1], v[2]]),
+                    offset_m: a.bus_offset_m.unwrap_or(d.bus.offset_m),
+                },
                 mount: a.mount.clone().unwrap_or(d.mount.clone()),
                 start_deg: a.start_deg.unwrap_or(d.start_deg),
                 inner_chord_m: a.inner_chord_m.unwrap_or(d.inner_chord_m),

@@ -90,6 +90,66 @@ pub struct RingParams {
     /// last bays flatten together through a near-singular state that rigid
     /// members meet with unconverged solves (docs/solver.md#elastic-members).
     pub elastic_members: bool,
+    /// `mount = "bus"`: the spacecraft bus post O0 is clamped to.
+    pub bus: BusParams,
+}
+
+/// A free-floating spacecraft bus (`generate ring --mount bus`): a rigid
+/// body of mass M and principal inertias J (about its centre, along the
+/// model's axes), its centre `offset_m` outward of post O0's foot and at
+/// the post's mid-height. Defaults: a small spacecraft, 100 kg, (10, 12, 14)
+/// kg m^2, 1.5 m.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BusParams {
+    pub mass_kg: f64,
+    pub inertia_kg_m2: [f64; 3],
+    pub offset_m: f64,
+}
+
+impl Default for BusParams {
+    fn default() -> Self {
+        BusParams {
+            mass_kg: 100.0,
+            inertia_kg_m2: [10.0, 12.0, 14.0],
+            offset_m: 1.5,
+        }
+    }
+}
+
+impl BusParams {
+    /// The six joints at +-a along the axes from the centre, pair k of mass
+    /// mu_k each: a^2 = tr(J) / (2 M), mu_k = M (tr(J)/2 - J_k) / tr(J)
+    /// (`elements::rigid_body`): (name suffix, offset, mass) in the order
+    /// +x, -x, +y, +z, -y, -z (the first four span the body).
+    pub fn vertices(&self) -> Result<Vec<(&'static str, [f64; 3], f64)>, GenerateError> {
+        let j = self.inertia_kg_m2;
+        let tr = j[0] + j[1] + j[2];
+        if !(self.mass_kg.is_finite() && self.mass_kg > 0.0) {
+            return Err(GenerateError(format!("--bus-mass-kg {}: give a positive mass", self.mass_kg)));
+        }
+        if !(self.offset_m.is_finite() && self.offset_m > 0.0) {
+            return Err(GenerateError(format!("--bus-offset-m {}: give a positive distance", self.offset_m)));
+        }
+        for k in 0..3 {
+            let others = tr - j[k];
+            if !(j[k].is_finite() && j[k] > 0.0 && j[k] < others) {
+                return Err(GenerateError(format!(
+                    "--bus-inertia {},{},{}: principal inertias must be positive and each less than the sum of the other two (a real body's)",
+                    j[0], j[1], j[2]
+                )));
+            }
+        }
+        let a = (0.5 * tr / self.mass_kg).sqrt();
+        let mu = |k: usize| self.mass_kg * (0.5 * tr - j[k]) / tr;
+        Ok(vec![
+            ("px", [a, 0.0, 0.0], mu(0)),
+            ("mx", [-a, 0.0, 0.0], mu(0)),
+            ("py", [0.0, a, 0.0], mu(1)),
+            ("pz", [0.0, 0.0, a], mu(2)),
+            ("my", [0.0, -a, 0.0], mu(1)),
+            ("mz", [0.0, 0.0, -a], mu(2)),
+        ])
+    }
 }
 
 impl Default for RingParams {
@@ -122,6 +182,7 @@ impl Default for RingParams {
             stroke_stop: None,
             stroke_margin_m: 0.005,
             elastic_members: false,
+            bus: BusParams::default(),
         }
     }
 }

@@ -33,7 +33,7 @@
 //! sqrt(c^2 + h^2). With all of them latched the bays are flat, which forces every
 //! radial frame square (the inner chords reach their length only at psi = 0).
 
-use super::super::file::{CableDoc, ElementDoc, ModelDoc};
+use super::super::file::{CableDoc, ElementDoc, JointDoc, ModelDoc};
 use super::ring::{
     fix_joint, hub_mount, members_note, ring_joints, RingParams, CHORD_UNIT_NOTE, DAMPING_NOTE,
     NUMBERING_NOTE,
@@ -284,17 +284,18 @@ pub fn stowing_ring(p: &RingParams) -> Result<ModelDoc, GenerateError> {
         (stowing_positions(p, phi0)?, stowing_positions(p, 0.0)?)
     };
     let post = match p.mount.as_str() {
-        "post" => true,
+        "post" | "bus" => true,
         "hub" => false,
         other => {
             return Err(GenerateError(format!(
-                "--mount {other}: the stowing ring is held at `post` (post O0 clamped to a boom) or `hub` (at its centre)"
+                "--mount {other}: the stowing ring is held at `post` (post O0 clamped to a boom), `bus` (post O0 clamped to a free-floating spacecraft) or `hub` (at its centre)"
             )))
         }
     };
+    let bus = p.mount == "bus";
     // Held at post O0, the deployed ring is placed where that post starts; held at
     // its hub, the ring keeps its axis.
-    let joints = ring_joints(p, &x0, &xd, post);
+    let mut joints = ring_joints(p, &x0, &xd, post);
     let (h, co, ci) = (p.height_m, p.outer_chord_m, p.inner_chord_m);
     let w = ring_depth_m(p);
     let el =
@@ -307,7 +308,9 @@ pub fn stowing_ring(p: &RingParams) -> Result<ModelDoc, GenerateError> {
     let j = |ring: &str, k: usize, end: &str| format!("{ring}{}_{end}", k % n);
     let fix = fix_joint;
     let mut elements = Vec::new();
-    if post {
+    if bus {
+        elements.extend(bus_mount(p, &mut joints)?);
+    } else if post {
         // Post O0 clamped to the boom's end fitting: its foot fixed, its top held
         // above it, and the fitting's turn about the post held by keeping frame 0's
         // inner foot in the plane y = 0.
@@ -596,6 +599,68 @@ pub fn stowing_ring(p: &RingParams) -> Result<ModelDoc, GenerateError> {
     })
 }
 
+/// The note of `--mount bus`.
+fn bus_note(p: &RingParams) -> String {
+    let b = &p.bus;
+    format!(
+        "Mount `bus`: post O0 clamped to a free-floating spacecraft bus in place of the ground (no support anywhere): {} kg, principal inertias {}, {}, {} kg m^2 about its centre along x, y, z, the centre {} m outward of post O0's foot at the post's mid-height; the bus is six joints BUS_px ... BUS_mz whose lumped masses carry that mass and inertia, held with post O0 by the rigid body `bus` (the fitting's turn by the coplanar `bus_fitting`). Joint damping is 0 unless --damping gives it: it acts on absolute velocities, an external force that would not conserve momentum; the gears, latches and members damp the deployment.",
+        b.mass_kg, b.inertia_kg_m2[0], b.inertia_kg_m2[1], b.inertia_kg_m2[2], b.offset_m
+    )
+}
+
+/// `--mount bus`: post O0 clamped to a free-floating spacecraft bus instead
+/// of the ground. The bus is six joints (`BusParams::vertices`) whose
+/// lumped masses carry its mass and inertia, its centre `offset_m` outward
+/// of post O0's foot (away from the ring's centre, horizontally) at the
+/// post's mid-height; one `rigid_body` holds the six and post O0's two
+/// joints; the fitting's turn about the post (the `post` mount's I0_b
+/// y = 0) is frame 0's inner foot kept in the plane of the post and the
+/// bus's +z vertex (a `coplanar`). Appends the bus joints to `joints`.
+fn bus_mount(p: &RingParams, joints: &mut Vec<JointDoc>) -> Result<Vec<ElementDoc>, GenerateError> {
+    let pos = |name: &str, js: &[JointDoc]| -> [f64; 3] {
+        js.iter().find(|j| j.name == name).expect("ring joint").position_m
+    };
+    let refpos = |name: &str, js: &[JointDoc]| -> [f64; 3] {
+        js.iter().find(|j| j.name == name).and_then(|j| j.reference_m).expect("reference")
+    };
+    let (ob, ot) = (pos("O0_b", joints), pos("O0_t", joints));
+    // outward: from the deployed ring's centre to O0_b, horizontally
+    let n = joints.len() as f64;
+    let mut c = [0.0; 3];
+    for j in joints.iter() {
+        let r = j.reference_m.expect("reference");
+        for k in 0..3 {
+            c[k] += r[k] / n;
+        }
+    }
+    let rb = refpos("O0_b", joints);
+    let (dx, dy) = (rb[0] - c[0], rb[1] - c[1]);
+    let d = (dx * dx + dy * dy).sqrt();
+    let centre = [
+        ob[0] + p.bus.offset_m * dx / d,
+        ob[1] + p.bus.offset_m * dy / d,
+        0.5 * (ob[2] + ot[2]),
+    ];
+    let mut body = Vec::new();
+    for (suffix, off, mass) in p.bus.vertices()? {
+        let x = [centre[0] + off[0], centre[1] + off[1], centre[2] + off[2]];
+        let name = format!("BUS_{suffix}");
+        joints.push(JointDoc { name: name.clone(), position_m: x, mass_kg: mass, reference_m: Some(x) });
+        body.push(name);
+    }
+    body.push("O0_b".into());
+    body.push("O0_t".into());
+    Ok(vec![
+        ElementDoc { kind: "rigid_body".into(), name: "bus".into(), joints: body, params: vec![] },
+        ElementDoc {
+            kind: "coplanar".into(),
+            name: "bus_fitting".into(),
+            joints: vec!["O0_b".into(), "O0_t".into(), "BUS_pz".into(), "I0_b".into()],
+            params: vec![],
+        },
+    ])
+}
+
 /// The model notes of the bay-by-bay ring: every joint choice with its source.
 fn bay_by_bay_notes(p: &RingParams, extent: f64, (te, to): (f64, f64), post: bool) -> Vec<String> {
     let n = p.sides;
@@ -620,6 +685,9 @@ fn bay_by_bay_notes(p: &RingParams, extent: f64, (te, to): (f64, f64), post: boo
     } else {
         "Mount `hub`: the centre of the outer feet fixed, O0_b held at y = 0 against spin and the mean heights of two blocks of frames level. The default `post` mount clamps post O0 to a boom instead.".into()
     });
+    if p.mount == "bus" {
+        notes.push(bus_note(p));
+    }
     notes.push(DAMPING_NOTE.into());
     notes.push(NUMBERING_NOTE.into());
     notes.extend(p.latch.as_ref().map(super::latch_note));
