@@ -94,6 +94,12 @@ pub struct RunSummary {
     /// Per member (bar or sleeve, in model order), its axial force and
     /// length at the end of the run (`record::Frame`).
     pub members: Vec<MemberSummary>,
+    /// Per rigid body (a spacecraft bus), its attitude change and rates
+    /// (`record::bodies`; `simulate`'s summary, empty in a sweep's rows).
+    pub bodies: Vec<crate::record::bodies::BodySummary>,
+    /// With a rigid body: the system's linear and angular momentum and
+    /// their drift over the run (null otherwise).
+    pub momentum: Option<crate::record::bodies::MomentumSummary>,
 }
 
 /// A member at the end of a run.
@@ -511,5 +517,7 @@ pub fn summarize(
                 length_m: frame.member_length_m[k],
             })
             .collect(),
+        bodies: Vec::new(),
+        momentum: None,
     }
 }

@@ -401,6 +401,7 @@ pub fn run(a: SimulateArgs) -> Result<(), Failure> {
         .report
         .as_deref()
         .map(|p| report::ReportRecorder::new(&sim, p, until, report::DEFAULT_FRAME_BUDGET));
+    let mut bodies = crate::record::bodies::BodyRecorder::new(&sim);
     let (mut plot_hook, mut progress) = (PlotHook(&mut rec), ProgressHook(&bar));
     // (the order of the hooks: the files after each step, then the plots;
     // the MCAP recording and the progress bar after the checks)
@@ -416,6 +417,9 @@ pub fn run(a: SimulateArgs) -> Result<(), Failure> {
     }
     if let Some(r) = html.as_mut() {
         recorders.push(r);
+    }
+    if bodies.has_bodies() {
+        recorders.push(&mut bodies);
     }
     recorders.push(&mut plot_hook);
     #[cfg(feature = "ros")]
@@ -476,6 +480,11 @@ pub fn run(a: SimulateArgs) -> Result<(), Failure> {
         reason,
         message.clone(),
     );
+    let summary = if bodies.has_bodies() {
+        run::RunSummary { bodies: bodies.bodies(), momentum: Some(bodies.momentum()), ..summary }
+    } else {
+        summary
+    };
     print_summary(&summary);
     if let Some(j) = &a.json {
         let text = serde_json::to_string_pretty(&summary).expect("summary serializes") + "\n";
@@ -568,6 +577,19 @@ fn print_summary(s: &SimulateJson) {
         s.dof_initial,
         s.dof_final
     );
+    for b in &s.bodies {
+        say!(
+            "body `{}`     attitude change {:.6e} deg about [{:.4}, {:.4}, {:.4}], peak rate {:.6e} rad/s at t = {:.6} s, final rate {:.3e} rad/s",
+            b.name, b.final_attitude_change_deg, b.final_rotation_axis[0], b.final_rotation_axis[1],
+            b.final_rotation_axis[2], b.peak_rate_rad_s, b.peak_rate_time_s, b.final_rate_rad_s
+        );
+    }
+    if let Some(p) = &s.momentum {
+        say!(
+            "momentum         drift linear {:.2e}, angular {:.2e} (of {:.4e} N s, {:.4e} N m s)",
+            p.linear_drift_rel, p.angular_drift_rel, p.linear_scale_n_s, p.angular_scale_n_m_s
+        );
+    }
     if let Some(f) = s.first_frequency_hz {
         say!("first frequency  {f:.6e} Hz (deployed, latched: analyze --modes)");
     }

@@ -7,6 +7,7 @@
 //! ledger), laid out by a [`FrameLayout`] built once from the model; the
 //! recorders that write tables or geometry capture frames.
 
+pub mod bodies;
 pub mod csv;
 pub mod frame;
 pub mod report;

@@ -2,6 +2,7 @@
 //! its outputs, plots, exit statuses and error messages.
 
 mod cli;
+mod bus;
 mod cli_plots;
 mod docs;
 mod history;
