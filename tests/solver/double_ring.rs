@@ -90,6 +90,14 @@ fn bundled_models_are_what_generate_writes() {
         ..RingParams::synchronized()
     };
     assert_eq!(text, ring(&bundled).unwrap().to_toml());
+    // `generate ring --sides 12 --mount bus`: the 12-sided bay-by-bay ring on
+    // a free-floating spacecraft bus (its defaults), no joint damping
+    let on_bus = RingParams {
+        mount: "bus".into(),
+        damping_n_s_per_m: 0.0,
+        ..RingParams::bay_by_bay_sized(12)
+    };
+    assert_eq!(read("ring_on_bus.toml"), ring(&on_bus).unwrap().to_toml());
 }
 
 #[test]
