@@ -492,7 +492,9 @@ fn analyze(a: AnalyzeArgs) -> Result<(), Failure> {
         output::check_outputs(&[a.model.as_path()], &[("--modes-svg", svg.as_path())])?;
     }
     if a.modes == Some(0) {
-        return Err(Failure::input("--modes 0: ask for at least one mode".to_string()));
+        return Err(Failure::input(
+            "--modes 0: ask for at least one mode".to_string(),
+        ));
     }
     let n_joints = loaded.model.n_joints();
     let file = a.model.display().to_string();
@@ -579,9 +581,25 @@ fn print_modes(m: &crate::solver::modes::Modes) {
         m.geometry, m.degrees_of_freedom, m.coordinates, m.rigid_rows, m.rigid_rank, m.member_rows, m.max_preload_n
     );
     if m.mechanisms > 0 || m.unstable > 0 {
-        say!("{} mechanisms (zero frequency), {} unstable (omega^2 < 0)", m.mechanisms, m.unstable);
+        say!(
+            "{} mechanisms (zero frequency), {} unstable (omega^2 < 0)",
+            m.mechanisms,
+            m.unstable
+        );
     }
-    say!("{:>5} {:>15} {:>11} {:<18} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7}", "mode", "frequency_hz", "kind", "motion", "tx", "ty", "tz", "rx", "ry", "rz");
+    say!(
+        "{:>5} {:>15} {:>11} {:<18} {:>7} {:>7} {:>7} {:>7} {:>7} {:>7}",
+        "mode",
+        "frequency_hz",
+        "kind",
+        "motion",
+        "tx",
+        "ty",
+        "tz",
+        "rx",
+        "ry",
+        "rz"
+    );
     for (i, mode) in m.modes.iter().enumerate() {
         let kind = match mode.kind {
             crate::solver::modes::ModeKind::Elastic => "elastic",
@@ -591,7 +609,16 @@ fn print_modes(m: &crate::solver::modes::Modes) {
         let p = mode.participation;
         say!(
             "{:>5} {:>15.6e} {:>11} {:<18} {:>7.3} {:>7.3} {:>7.3} {:>7.3} {:>7.3} {:>7.3}",
-            i + 1, mode.frequency_hz, kind, mode.motion, p[0], p[1], p[2], p[3], p[4], p[5]
+            i + 1,
+            mode.frequency_hz,
+            kind,
+            mode.motion,
+            p[0],
+            p[1],
+            p[2],
+            p[3],
+            p[4],
+            p[5]
         );
     }
 }
@@ -750,7 +777,9 @@ fn generate_doc(a: &GenerateArgs) -> Result<model::ModelDoc, Failure> {
                     j.len()
                 )));
             }
-            if !bus && (a.bus_mass_kg.is_some() || a.bus_inertia.is_some() || a.bus_offset_m.is_some()) {
+            if !bus
+                && (a.bus_mass_kg.is_some() || a.bus_inertia.is_some() || a.bus_offset_m.is_some())
+            {
                 return Err(Failure::input(
                     "--bus-mass-kg, --bus-inertia and --bus-offset-m describe the bus of --mount bus; give --mount bus".to_string(),
                 ));
@@ -775,7 +804,9 @@ fn generate_doc(a: &GenerateArgs) -> Result<model::ModelDoc, Failure> {
                 sides: a.sides,
                 tension_n: a.tension_n.unwrap_or(d.tension_n),
                 friction_mu: a.mu.unwrap_or(d.friction_mu),
-                damping_n_s_per_m: a.damping.unwrap_or(if bus { 0.0 } else { d.damping_n_s_per_m }),
+                damping_n_s_per_m: a
+                    .damping
+                    .unwrap_or(if bus { 0.0 } else { d.damping_n_s_per_m }),
                 bus: generate::ring::BusParams {
                     mass_kg: a.bus_mass_kg.unwrap_or(d.bus.mass_kg),
                     inertia_kg_m2: a

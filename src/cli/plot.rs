@@ -454,9 +454,18 @@ pub fn modes_svg(
             let shape = base
                 .iter()
                 .zip(&m.shape)
-                .map(|(p, u)| [p[0] + amplitude * u[0], p[1] + amplitude * u[1], p[2] + amplitude * u[2]])
+                .map(|(p, u)| {
+                    [
+                        p[0] + amplitude * u[0],
+                        p[1] + amplitude * u[1],
+                        p[2] + amplitude * u[2],
+                    ]
+                })
                 .collect();
-            (format!("mode {}: {:.4} Hz, {}", i + 1, m.frequency_hz, m.motion), shape)
+            (
+                format!("mode {}: {:.4} Hz, {}", i + 1, m.frequency_hz, m.motion),
+                shape,
+            )
         })
         .collect();
     snapshots(
@@ -1051,7 +1060,9 @@ impl Recorder {
                     &format!("{}: deployment", model.name),
                     &members(model),
                     &frames,
-                    reference.as_deref().map(|r| (r, "reference deployed geometry")),
+                    reference
+                        .as_deref()
+                        .map(|r| (r, "reference deployed geometry")),
                 )?;
             }
         }

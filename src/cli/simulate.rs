@@ -481,7 +481,11 @@ pub fn run(a: SimulateArgs) -> Result<(), Failure> {
         message.clone(),
     );
     let summary = if bodies.has_bodies() {
-        run::RunSummary { bodies: bodies.bodies(), momentum: Some(bodies.momentum()), ..summary }
+        run::RunSummary {
+            bodies: bodies.bodies(),
+            momentum: Some(bodies.momentum()),
+            ..summary
+        }
     } else {
         summary
     };
@@ -587,7 +591,10 @@ fn print_summary(s: &SimulateJson) {
     if let Some(p) = &s.momentum {
         say!(
             "momentum         drift linear {:.2e}, angular {:.2e} (of {:.4e} N s, {:.4e} N m s)",
-            p.linear_drift_rel, p.angular_drift_rel, p.linear_scale_n_s, p.angular_scale_n_m_s
+            p.linear_drift_rel,
+            p.angular_drift_rel,
+            p.linear_scale_n_s,
+            p.angular_scale_n_m_s
         );
     }
     if let Some(f) = s.first_frequency_hz {

@@ -184,7 +184,12 @@ impl BodyRecorder {
 
 fn centre(joints: &[usize], mass: &[f64], x: &[f64]) -> Vector3<f64> {
     let total: f64 = mass.iter().sum();
-    joints.iter().zip(mass).map(|(&j, &m)| m * joint(x, j)).sum::<Vector3<f64>>() / total
+    joints
+        .iter()
+        .zip(mass)
+        .map(|(&j, &m)| m * joint(x, j))
+        .sum::<Vector3<f64>>()
+        / total
 }
 
 /// |omega| (rad/s), the rotation angle (rad) and its unit axis.
@@ -205,8 +210,16 @@ fn attitude(b: &Body, x: &[f64], v: &[f64]) -> (f64, f64, [f64; 3]) {
     let r = u * Matrix3::from_diagonal(&Vector3::new(1.0, 1.0, d)) * vt;
     let angle = ((r.trace() - 1.0) / 2.0).clamp(-1.0, 1.0).acos();
     // axis from the skew part (R - R^T) / 2 = sin(angle) [axis]x
-    let w = Vector3::new(r[(2, 1)] - r[(1, 2)], r[(0, 2)] - r[(2, 0)], r[(1, 0)] - r[(0, 1)]);
-    let axis = if w.norm() > 0.0 { w / w.norm() } else { Vector3::zeros() };
+    let w = Vector3::new(
+        r[(2, 1)] - r[(1, 2)],
+        r[(0, 2)] - r[(2, 0)],
+        r[(1, 0)] - r[(0, 1)],
+    );
+    let axis = if w.norm() > 0.0 {
+        w / w.norm()
+    } else {
+        Vector3::zeros()
+    };
     (omega.norm(), angle, [axis.x, axis.y, axis.z])
 }
 

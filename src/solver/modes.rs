@@ -93,7 +93,13 @@ impl Linearization {
         }
         super::springs::ElementSprings::new(model).add_forces(model, &x, &vec![0.0; n], &mut q);
         let row_forces_n = q.iter().map(|v| -v).collect();
-        Linearization { x, locked, row_forces_n, segment_tension_n, geometry }
+        Linearization {
+            x,
+            locked,
+            row_forces_n,
+            segment_tension_n,
+            geometry,
+        }
     }
 
     /// A run's state as it is (mid-deployment, or deployed): its positions,
@@ -112,7 +118,11 @@ impl Linearization {
             x: state.x.clone(),
             locked: state.locked.clone(),
             row_forces_n: f,
-            segment_tension_n: state.cables.iter().map(|c| c.segment_tension_n.clone()).collect(),
+            segment_tension_n: state
+                .cables
+                .iter()
+                .map(|c| c.segment_tension_n.clone())
+                .collect(),
             geometry: "state",
         }
     }
@@ -191,10 +201,14 @@ pub struct Modes {
 #[derive(Debug)]
 pub enum ModesError {
     /// The positions make an element's rows undefined (non-finite).
-    Degenerate { element: String },
+    Degenerate {
+        element: String,
+    },
     /// The rows cannot carry the given forces: the state is not an
     /// equilibrium of the locked truss (a mechanism the forces drive).
-    NotInEquilibrium { residual_rel: f64 },
+    NotInEquilibrium {
+        residual_rel: f64,
+    },
     /// The least-work split or a decomposition failed.
     Solver(SolverError),
     Decomposition(&'static str),
@@ -250,8 +264,6 @@ fn element_hessian(
     for a in 0..w {
         h[a * w + a] = diag[a];
         for b in a + 1..w {
-            // (two local coordinates of one joint listed twice would share
-            // a global column: then q(e_a + e_b) is q(2 e_a))
             let hab = 0.5 * (q(v, a, Some(b)) - diag[a] - diag[b]);
             h[a * w + b] = hab;
             h[b * w + a] = hab;
@@ -259,15 +271,53 @@ fn element_hessian(
     }
 }
 
+/// K[cols, cols] += scale a a^T (a row of an element's block over `cols`).
+fn add_outer(k: &mut nalgebra::DMatrix<f64>, cols: &[usize], a: &[f64], scale: f64) {
+    for (i, ai) in a.iter().enumerate() {
+        for (j, aj) in a.iter().enumerate() {
+            k[(cols[i], cols[j])] += scale * ai * aj;
+        }
+    }
+}
+
+/// K[cols, cols] += sum_r w_r H_r of an element's rows (`element_hessian`),
+/// nothing where every weight is 0.
+fn add_hessian(
+    k: &mut nalgebra::DMatrix<f64>,
+    cols: &[usize],
+    el: &dyn Constraint,
+    x: &[f64],
+    weights: &[f64],
+    v: &mut [f64],
+) {
+    if weights.iter().all(|w| *w == 0.0) {
+        return;
+    }
+    let w = cols.len();
+    let (mut rows, mut h) = (vec![0.0; weights.len()], vec![0.0; w * w]);
+    element_hessian(el, x, weights, v, &mut rows, &mut h);
+    for i in 0..w {
+        for j in 0..w {
+            k[(cols[i], cols[j])] += h[i * w + j];
+        }
+    }
+}
+
 /// The natural modes at `lin`: the lowest `count` (all when larger than
 /// the degrees of freedom).
-pub fn natural_modes(model: &Model, lin: &Linearization, count: usize) -> Result<Modes, ModesError> {
+pub fn natural_modes(
+    model: &Model,
+    lin: &Linearization,
+    count: usize,
+) -> Result<Modes, ModesError> {
     let n = model.n_coords();
     let x = &lin.x;
     let mut jac = Jacobian::pattern(model, &lin.locked);
     jac.fill(model, x);
     if let Some((e, _)) = jac.non_finite_element() {
-        return Err(ModesError::Degenerate { element: model.elements[e].name().to_string() });
+        return Err(ModesError::Degenerate {
+            element: model.elements[e].name().to_string(),
+        });
     }
     // The preload: least-work multipliers of the joint forces the rows carry.
     let mut lambda = vec![0.0; jac.nrows];
@@ -280,10 +330,17 @@ pub fn natural_modes(model: &Model, lin: &Linearization, count: usize) -> Result
             .map_err(ModesError::Solver)?;
         let mut atl = vec![0.0; n];
         jac.mul_t(&lambda, &mut atl);
-        let r = atl.iter().zip(f).map(|(a, b)| (a - b).powi(2)).sum::<f64>().sqrt();
+        let r = atl
+            .iter()
+            .zip(f)
+            .map(|(a, b)| (a - b).powi(2))
+            .sum::<f64>()
+            .sqrt();
         preload_residual_rel = r / f_norm;
         if preload_residual_rel > model.solver.modes_equilibrium_rel {
-            return Err(ModesError::NotInEquilibrium { residual_rel: preload_residual_rel });
+            return Err(ModesError::NotInEquilibrium {
+                residual_rel: preload_residual_rel,
+            });
         }
     }
     // Row compliances: members finite (a compliant latch in series with its
@@ -302,29 +359,15 @@ pub fn natural_modes(model: &Model, lin: &Linearization, count: usize) -> Result
         let el = model.elements[b.element].as_ref();
         let w = Jacobian::width(b);
         let vals = &jac.values[b.offset..b.offset + b.rows * w];
-        let gcol = |c: usize| b.cols[c / 3] + c % 3;
+        let cols: Vec<usize> = (0..w).map(|c| b.cols[c / 3] + c % 3).collect();
         for r in 0..b.rows {
             let c = compliance[b.row0 + r];
             if c.is_finite() {
-                let row = &vals[r * w..(r + 1) * w];
-                for (i, ai) in row.iter().enumerate() {
-                    for (j, aj) in row.iter().enumerate() {
-                        k[(gcol(i), gcol(j))] += ai * aj / c;
-                    }
-                }
+                add_outer(&mut k, &cols, &vals[r * w..(r + 1) * w], 1.0 / c);
             }
         }
         let weights: Vec<f64> = lambda[b.row0..b.row0 + b.rows].iter().map(|l| -l).collect();
-        if weights.iter().any(|w| *w != 0.0) {
-            let mut rows = vec![0.0; b.rows];
-            let mut h = vec![0.0; w * w];
-            element_hessian(el, x, &weights, &mut v, &mut rows, &mut h);
-            for i in 0..w {
-                for j in 0..w {
-                    k[(gcol(i), gcol(j))] += h[i * w + j];
-                }
-            }
-        }
+        add_hessian(&mut k, &cols, el, x, &weights, &mut v);
     }
     for el in &model.elements {
         let Some(s) = el.spring() else { continue };
@@ -336,28 +379,14 @@ pub fn natural_modes(model: &Model, lin: &Linearization, count: usize) -> Result
         let mut a = vec![0.0; s.rows * w];
         el.residual(x, &mut phi);
         el.jacobian(x, &mut a);
-        let gcol = |c: usize| 3 * el.joints()[c / 3] + c % 3;
+        let cols: Vec<usize> = (0..w).map(|c| 3 * el.joints()[c / 3] + c % 3).collect();
         let kk = s.stiffness_n_per_m;
         for r in 0..s.rows {
-            let row = &a[r * w..(r + 1) * w];
-            for (i, ai) in row.iter().enumerate() {
-                for (j, aj) in row.iter().enumerate() {
-                    k[(gcol(i), gcol(j))] += kk * ai * aj;
-                }
-            }
+            add_outer(&mut k, &cols, &a[r * w..(r + 1) * w], kk);
         }
         // (the force -A^T k Phi: its geometric stiffness is + sum k Phi H)
         let weights: Vec<f64> = phi.iter().map(|p| kk * p).collect();
-        if weights.iter().any(|w| *w != 0.0) {
-            let mut rows = vec![0.0; s.rows];
-            let mut h = vec![0.0; w * w];
-            element_hessian(el.as_ref(), x, &weights, &mut v, &mut rows, &mut h);
-            for i in 0..w {
-                for j in 0..w {
-                    k[(gcol(i), gcol(j))] += h[i * w + j];
-                }
-            }
-        }
+        add_hessian(&mut k, &cols, el.as_ref(), x, &weights, &mut v);
     }
     for (c, t) in model.cables.iter().zip(&lin.segment_tension_n) {
         for (s, &tj) in c.path.windows(2).zip(t) {
@@ -378,7 +407,9 @@ pub fn natural_modes(model: &Model, lin: &Linearization, count: usize) -> Result
     }
     // The rigid rows, mass-scaled: B = A_r M^-1/2, and a basis of null(B).
     let inv_sqrt_m: Vec<f64> = model.mass.iter().map(|m| 1.0 / m.sqrt()).collect();
-    let rigid: Vec<usize> = (0..jac.nrows).filter(|&r| !compliance[r].is_finite()).collect();
+    let rigid: Vec<usize> = (0..jac.nrows)
+        .filter(|&r| !compliance[r].is_finite())
+        .collect();
     let mut row_of = vec![usize::MAX; jac.nrows];
     for (i, &r) in rigid.iter().enumerate() {
         row_of[r] = i;
@@ -392,12 +423,17 @@ pub fn natural_modes(model: &Model, lin: &Linearization, count: usize) -> Result
     let (basis, rigid_rank) = if rigid.is_empty() {
         (faer::Mat::<f64>::identity(n, n), 0)
     } else {
-        let svd = bmat.svd().map_err(|_| ModesError::Decomposition("SVD of the rigid rows"))?;
+        let svd = bmat
+            .svd()
+            .map_err(|_| ModesError::Decomposition("SVD of the rigid rows"))?;
         let s = svd.S().column_vector();
         let sigma: Vec<f64> = (0..s.nrows()).map(|i| s[i]).collect();
         let r = super::rank::numerical_rank(&sigma);
         let vmat = svd.V();
-        (faer::Mat::<f64>::from_fn(n, n - r, |i, j| vmat[(i, r + j)]), r)
+        (
+            faer::Mat::<f64>::from_fn(n, n - r, |i, j| vmat[(i, r + j)]),
+            r,
+        )
     };
     let dof = n - rigid_rank;
     // K~ = N^T M^-1/2 K M^-1/2 N
@@ -431,8 +467,14 @@ pub fn natural_modes(model: &Model, lin: &Linearization, count: usize) -> Result
             ModeKind::Elastic
         }
     };
-    let mechanisms = omega2.iter().filter(|w| kind_of(**w) == ModeKind::Mechanism).count();
-    let unstable = omega2.iter().filter(|w| kind_of(**w) == ModeKind::Unstable).count();
+    let mechanisms = omega2
+        .iter()
+        .filter(|w| kind_of(**w) == ModeKind::Mechanism)
+        .count();
+    let unstable = omega2
+        .iter()
+        .filter(|w| kind_of(**w) == ModeKind::Unstable)
+        .count();
     let fields = rigid_body_fields(model, x);
     let mut modes = Vec::new();
     for m in 0..count.min(dof) {
@@ -472,7 +514,11 @@ pub fn deployed_first_frequency_hz(model: &Model) -> Option<f64> {
     let lin = Linearization::deployed(model);
     let first = natural_modes(model, &lin, 1).ok()?;
     let skip = first.mechanisms + first.unstable;
-    let modes = if skip == 0 { first } else { natural_modes(model, &lin, skip + 1).ok()? };
+    let modes = if skip == 0 {
+        first
+    } else {
+        natural_modes(model, &lin, skip + 1).ok()?
+    };
     modes
         .modes
         .iter()
@@ -517,9 +563,19 @@ const MOTIONS: [&str; 6] = [
     "rotation about z",
 ];
 
-fn describe(model: &Model, omega2: f64, kind: ModeKind, u: Vec<f64>, fields: &[Vec<f64>; 6]) -> Mode {
+fn describe(
+    model: &Model,
+    omega2: f64,
+    kind: ModeKind,
+    u: Vec<f64>,
+    fields: &[Vec<f64>; 6],
+) -> Mode {
     let mdot = |a: &[f64], b: &[f64]| -> f64 {
-        a.iter().zip(b).zip(&model.mass).map(|((a, b), m)| a * b * m).sum()
+        a.iter()
+            .zip(b)
+            .zip(&model.mass)
+            .map(|((a, b), m)| a * b * m)
+            .sum()
     };
     let uu = mdot(&u, &u);
     let mut participation = [0.0; 6];
@@ -529,11 +585,16 @@ fn describe(model: &Model, omega2: f64, kind: ModeKind, u: Vec<f64>, fields: &[V
             *p = mdot(&u, r).powi(2) / (uu * rr);
         }
     }
-    let (best, pmax) = participation
-        .iter()
-        .enumerate()
-        .fold((0, 0.0), |acc, (i, p)| if *p > acc.1 { (i, *p) } else { acc });
-    let motion = if pmax > 0.1 { MOTIONS[best].to_string() } else { "internal".to_string() };
+    let (best, pmax) =
+        participation.iter().enumerate().fold(
+            (0, 0.0),
+            |acc, (i, p)| if *p > acc.1 { (i, *p) } else { acc },
+        );
+    let motion = if pmax > 0.1 {
+        MOTIONS[best].to_string()
+    } else {
+        "internal".to_string()
+    };
     let nj = model.n_joints();
     let mut big = (0.0, 0usize);
     for j in 0..nj {
@@ -545,8 +606,14 @@ fn describe(model: &Model, omega2: f64, kind: ModeKind, u: Vec<f64>, fields: &[V
     let lead = (0..3)
         .map(|k| u[3 * big.1 + k])
         .fold(0.0f64, |a, v| if v.abs() > a.abs() { v } else { a });
-    let s = if big.0 > 0.0 { lead.signum() / big.0 } else { 0.0 };
-    let shape = (0..nj).map(|j| [u[3 * j] * s, u[3 * j + 1] * s, u[3 * j + 2] * s]).collect();
+    let s = if big.0 > 0.0 {
+        lead.signum() / big.0
+    } else {
+        0.0
+    };
+    let shape = (0..nj)
+        .map(|j| [u[3 * j] * s, u[3 * j + 1] * s, u[3 * j + 2] * s])
+        .collect();
     Mode {
         omega2_rad2_s2: omega2,
         frequency_hz: omega2.abs().sqrt() / (2.0 * std::f64::consts::PI),

@@ -234,7 +234,10 @@ pub fn summarize(
         latch_load: Quantiles::of(&loads),
         latch_load_unit: if compliant { "N" } else { "N s" }.into(),
         first_frequency_hz: Quantiles::of(
-            &rows.iter().filter_map(|r| r.first_frequency_hz).collect::<Vec<_>>(),
+            &rows
+                .iter()
+                .filter_map(|r| r.first_frequency_hz)
+                .collect::<Vec<_>>(),
         ),
         last_latch,
         drives_deploy_time: strongest(&correlations, |c| c.spearman_deploy_time),

@@ -6,15 +6,16 @@ use serde_json::Value;
 use std::f64::consts::PI;
 use std::fmt::Write;
 
-use crate::{run, temp_dir};
-
-fn text(o: &std::process::Output) -> String {
-    format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr))
-}
+use crate::{run, temp_dir, text};
 
 fn simulate_json(model: &std::path::Path, dir: &std::path::Path) -> Value {
     let json = dir.join("s.json");
-    let o = run(&["simulate".as_ref(), model.as_os_str(), "--json".as_ref(), json.as_os_str()]);
+    let o = run(&[
+        "simulate".as_ref(),
+        model.as_os_str(),
+        "--json".as_ref(),
+        json.as_os_str(),
+    ]);
     assert!(o.status.success(), "{}", text(&o));
     serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap()
 }
@@ -27,15 +28,32 @@ fn the_generated_bus_has_the_stated_mass_and_inertia() {
     let d = temp_dir("bus_generate");
     let f = d.join("bus.toml");
     let o = run(&[
-        "generate".as_ref(), "ring".as_ref(), "--sides".as_ref(), "12".as_ref(),
-        "--mount".as_ref(), "bus".as_ref(), "--bus-mass-kg".as_ref(), "250".as_ref(),
-        "--bus-inertia".as_ref(), "40,55,70".as_ref(), "-o".as_ref(), f.as_os_str(),
+        "generate".as_ref(),
+        "ring".as_ref(),
+        "--sides".as_ref(),
+        "12".as_ref(),
+        "--mount".as_ref(),
+        "bus".as_ref(),
+        "--bus-mass-kg".as_ref(),
+        "250".as_ref(),
+        "--bus-inertia".as_ref(),
+        "40,55,70".as_ref(),
+        "-o".as_ref(),
+        f.as_os_str(),
     ]);
     assert!(o.status.success(), "{}", text(&o));
     let doc: toml::Value = toml::from_str(&std::fs::read_to_string(&f).unwrap()).unwrap();
     let elements = doc["element"].as_array().unwrap();
-    assert!(elements.iter().all(|e| e["type"].as_str() != Some("support")));
-    assert_eq!(elements.iter().filter(|e| e["type"].as_str() == Some("rigid_body")).count(), 1);
+    assert!(elements
+        .iter()
+        .all(|e| e["type"].as_str() != Some("support")));
+    assert_eq!(
+        elements
+            .iter()
+            .filter(|e| e["type"].as_str() == Some("rigid_body"))
+            .count(),
+        1
+    );
     assert_eq!(doc["settings"]["damping_n_s_per_m"].as_float(), Some(0.0));
     let bus: Vec<([f64; 3], f64)> = doc["joint"]
         .as_array()
@@ -43,14 +61,21 @@ fn the_generated_bus_has_the_stated_mass_and_inertia() {
         .iter()
         .filter(|j| j["name"].as_str().unwrap().starts_with("BUS_"))
         .map(|j| {
-            let p: Vec<f64> = j["position_m"].as_array().unwrap().iter().map(|v| v.as_float().unwrap()).collect();
+            let p: Vec<f64> = j["position_m"]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|v| v.as_float().unwrap())
+                .collect();
             ([p[0], p[1], p[2]], j["mass_kg"].as_float().unwrap())
         })
         .collect();
     assert_eq!(bus.len(), 6);
     let m: f64 = bus.iter().map(|b| b.1).sum();
     assert!((m - 250.0).abs() < 1e-12 * 250.0, "{m}");
-    let c: Vec<f64> = (0..3).map(|k| bus.iter().map(|b| b.1 * b.0[k]).sum::<f64>() / m).collect();
+    let c: Vec<f64> = (0..3)
+        .map(|k| bus.iter().map(|b| b.1 * b.0[k]).sum::<f64>() / m)
+        .collect();
     let mut j = [[0.0; 3]; 3];
     for (p, mass) in &bus {
         let r = [p[0] - c[0], p[1] - c[1], p[2] - c[2]];
@@ -62,7 +87,11 @@ fn the_generated_bus_has_the_stated_mass_and_inertia() {
         }
     }
     for (a, want) in [40.0, 55.0, 70.0].iter().enumerate() {
-        assert!((j[a][a] - want).abs() < 1e-12 * want, "J_{a}{a} = {}", j[a][a]);
+        assert!(
+            (j[a][a] - want).abs() < 1e-12 * want,
+            "J_{a}{a} = {}",
+            j[a][a]
+        );
         for b in 0..3 {
             if a != b {
                 assert!(j[a][b].abs() < 1e-12 * want);
@@ -70,9 +99,22 @@ fn the_generated_bus_has_the_stated_mass_and_inertia() {
         }
     }
     // a body no real inertia makes, and bus options without the bus
-    let o = run(&["generate", "ring", "--mount", "bus", "--bus-inertia", "1,1,5", "-o", "-"]);
+    let o = run(&[
+        "generate",
+        "ring",
+        "--mount",
+        "bus",
+        "--bus-inertia",
+        "1,1,5",
+        "-o",
+        "-",
+    ]);
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));
-    assert!(text(&o).contains("less than the sum of the other two"), "{}", text(&o));
+    assert!(
+        text(&o).contains("less than the sum of the other two"),
+        "{}",
+        text(&o)
+    );
     let o = run(&["generate", "ring", "--bus-mass-kg", "50", "-o", "-"]);
     assert_eq!(o.status.code(), Some(2), "{}", text(&o));
     assert!(text(&o).contains("--mount bus"), "{}", text(&o));
@@ -89,7 +131,16 @@ fn the_generated_bus_has_the_stated_mass_and_inertia() {
 fn a_ring_deploying_on_a_free_bus_keeps_its_momentum() {
     let d = temp_dir("bus_ring");
     let f = d.join("bus12.toml");
-    let o = run(&["generate".as_ref(), "ring".as_ref(), "--sides".as_ref(), "12".as_ref(), "--mount".as_ref(), "bus".as_ref(), "-o".as_ref(), f.as_os_str()]);
+    let o = run(&[
+        "generate".as_ref(),
+        "ring".as_ref(),
+        "--sides".as_ref(),
+        "12".as_ref(),
+        "--mount".as_ref(),
+        "bus".as_ref(),
+        "-o".as_ref(),
+        f.as_os_str(),
+    ]);
     assert!(o.status.success(), "{}", text(&o));
     let s = simulate_json(&f, &d);
     assert_eq!(s["stop_reason"], "deployed");
@@ -99,7 +150,10 @@ fn a_ring_deploying_on_a_free_bus_keeps_its_momentum() {
     assert!(p["angular_drift_rel"].as_f64().unwrap() < 1e-5, "{p}");
     let bus = &s["bodies"][0];
     assert_eq!(bus["name"], "bus");
-    assert!(bus["final_attitude_change_deg"].as_f64().unwrap() > 1.0, "{bus}");
+    assert!(
+        bus["final_attitude_change_deg"].as_f64().unwrap() > 1.0,
+        "{bus}"
+    );
     assert!(bus["peak_rate_rad_s"].as_f64().unwrap() > bus["final_rate_rad_s"].as_f64().unwrap());
 }
 
@@ -139,16 +193,32 @@ fn two_body(e: f64, dir: &std::path::Path) -> (f64, f64, Value) {
     let mb: f64 = joints.iter().map(|j| j.2).sum();
     let cx = joints.iter().map(|j| j.2 * j.1[0]).sum::<f64>() / mb;
     let cy = joints.iter().map(|j| j.2 * j.1[1]).sum::<f64>() / mb;
-    let jz: f64 = joints.iter().map(|j| j.2 * ((j.1[0] - cx).powi(2) + (j.1[1] - cy).powi(2))).sum();
+    let jz: f64 = joints
+        .iter()
+        .map(|j| j.2 * ((j.1[0] - cx).powi(2) + (j.1[1] - cy).powi(2)))
+        .sum();
     joints.push(("P".into(), [a_x + u0, e, 0.0], m));
     let mut t = String::from(
         "[model]\nname = \"two_body\"\n[settings]\ndt_s = 0.01\nend_time_s = 60.0\ngravity_m_s2 = [0.0, 0.0, 0.0]\ndamping_n_s_per_m = 0.0\n",
     );
     for (n, p, mass) in &joints {
-        writeln!(t, "[[joint]]\nname = \"{n}\"\nposition_m = [{:?}, {:?}, {:?}]\nmass_kg = {mass:?}", p[0], p[1], p[2]).unwrap();
+        writeln!(
+            t,
+            "[[joint]]\nname = \"{n}\"\nposition_m = [{:?}, {:?}, {:?}]\nmass_kg = {mass:?}",
+            p[0], p[1], p[2]
+        )
+        .unwrap();
     }
-    let names: Vec<String> = joints[..10].iter().map(|j| format!("\"{}\"", j.0)).collect();
-    writeln!(t, "[[element]]\ntype = \"rigid_body\"\nname = \"bus\"\njoints = [{}]", names.join(", ")).unwrap();
+    let names: Vec<String> = joints[..10]
+        .iter()
+        .map(|j| format!("\"{}\"", j.0))
+        .collect();
+    writeln!(
+        t,
+        "[[element]]\ntype = \"rigid_body\"\nname = \"bus\"\njoints = [{}]",
+        names.join(", ")
+    )
+    .unwrap();
     t += "[[element]]\ntype = \"coplanar\"\nname = \"line_y\"\njoints = [\"A\", \"A_up\", \"A_x\", \"P\"]\n";
     t += "[[element]]\ntype = \"coplanar\"\nname = \"line_z\"\njoints = [\"A\", \"A_x\", \"BUS_py\", \"P\"]\n";
     writeln!(t, "[[element]]\ntype = \"sleeve\"\nname = \"S\"\njoints = [\"A\", \"P\"]\nlock_length_m = {:?}", -u1).unwrap();
@@ -163,7 +233,11 @@ fn two_body(e: f64, dir: &std::path::Path) -> (f64, f64, Value) {
     let k = ((jz + mu * ec * ec) / mu).sqrt();
     let (s0, s1) = (a_x + u0 - cx, a_x + u1 - cx);
     let exact = (ec / k) * ((s1 / k).atan() - (s0 / k).atan());
-    let turned = s["bodies"][0]["final_attitude_change_deg"].as_f64().unwrap() * PI / 180.0;
+    let turned = s["bodies"][0]["final_attitude_change_deg"]
+        .as_f64()
+        .unwrap()
+        * PI
+        / 180.0;
     (turned, exact, s)
 }
 
@@ -173,16 +247,25 @@ fn an_offset_pull_turns_the_bus_by_the_two_body_angle() {
     let (turned, exact, s) = two_body(0.8, &d);
     assert!(exact.abs() > 1e-3, "{exact}");
     // (the angle's sign is not reported: the axis is, along -z for e > 0)
-    assert!((turned - exact.abs()).abs() <= 1e-6 * exact.abs(), "turned {turned:.12e} rad, two-body answer {exact:.12e} rad");
+    assert!(
+        (turned - exact.abs()).abs() <= 1e-6 * exact.abs(),
+        "turned {turned:.12e} rad, two-body answer {exact:.12e} rad"
+    );
     let axis = &s["bodies"][0]["final_rotation_axis"];
-    assert!((axis[2].as_f64().unwrap().abs() - 1.0).abs() < 1e-9, "{axis}");
+    assert!(
+        (axis[2].as_f64().unwrap().abs() - 1.0).abs() < 1e-9,
+        "{axis}"
+    );
     // latched, the two turn as one body with L = 0: at rest but for the
     // angular momentum's drift (2.9e-7 of its scale, measured)
     let (last, peak) = (
         s["bodies"][0]["final_rate_rad_s"].as_f64().unwrap(),
         s["bodies"][0]["peak_rate_rad_s"].as_f64().unwrap(),
     );
-    assert!(last < 1e-5 * peak, "final rate {last:e} rad/s, peak {peak:e} rad/s");
+    assert!(
+        last < 1e-5 * peak,
+        "final rate {last:e} rad/s, peak {peak:e} rad/s"
+    );
     assert!(s["momentum"]["linear_drift_rel"].as_f64().unwrap() < 1e-12);
 }
 
@@ -191,5 +274,9 @@ fn a_pull_through_the_centre_of_mass_leaves_the_attitude_unchanged() {
     let d = temp_dir("bus_symmetric");
     let (turned, _, s) = two_body(0.0, &d);
     assert!(turned < 1e-12, "turned {turned:e} rad");
-    assert!(s["momentum"]["angular_drift_rel"].as_f64().unwrap() < 1e-12, "{}", s["momentum"]);
+    assert!(
+        s["momentum"]["angular_drift_rel"].as_f64().unwrap() < 1e-12,
+        "{}",
+        s["momentum"]
+    );
 }

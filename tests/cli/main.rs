@@ -1,8 +1,8 @@
 //! The command line as a user runs it: the built binary on model files,
 //! its outputs, plots, exit statuses and error messages.
 
-mod cli;
 mod bus;
+mod cli;
 mod cli_plots;
 mod docs;
 mod history;
@@ -41,6 +41,17 @@ pub fn run<S: AsRef<std::ffi::OsStr>>(args: &[S]) -> Output {
         .env("RUST_BACKTRACE", "0")
         .output()
         .expect("run truss-deploy")
+}
+
+/// A finished run's exit status, stdout and stderr, for assertion messages
+/// and for what a test looks for in the output.
+pub fn text(o: &Output) -> String {
+    format!(
+        "exit {:?}\nstdout:\n{}\nstderr:\n{}",
+        o.status.code(),
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    )
 }
 
 /// TRUSS_PYTHON if it imports `modules` (and `missing` is None: a

@@ -6,15 +6,7 @@
 use serde_json::Value;
 use std::path::Path;
 
-use crate::{run, temp_dir, BIN};
-
-fn text(o: &std::process::Output) -> String {
-    format!(
-        "{}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    )
-}
+use crate::{run, temp_dir, text, BIN};
 
 /// The bundled ring's first ten modes: printed, in the JSON (ascending,
 /// positive, elastic, one shape per joint with its largest joint
@@ -39,7 +31,10 @@ fn analyze_gives_the_bundled_rings_first_modes() {
     let v: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
     let modes = v["modes"]["modes"].as_array().expect("modes in the JSON");
     assert_eq!(modes.len(), 10);
-    let f: Vec<f64> = modes.iter().map(|m| m["frequency_hz"].as_f64().unwrap()).collect();
+    let f: Vec<f64> = modes
+        .iter()
+        .map(|m| m["frequency_hz"].as_f64().unwrap())
+        .collect();
     assert!(f[0] > 0.0 && f.windows(2).all(|w| w[0] <= w[1]), "{f:?}");
     assert_eq!(v["modes"]["mechanisms"].as_u64(), Some(0));
     for m in modes {
@@ -49,7 +44,12 @@ fn analyze_gives_the_bundled_rings_first_modes() {
         let biggest = shape
             .iter()
             .map(|u| {
-                u.as_array().unwrap().iter().map(|c| c.as_f64().unwrap().powi(2)).sum::<f64>().sqrt()
+                u.as_array()
+                    .unwrap()
+                    .iter()
+                    .map(|c| c.as_f64().unwrap().powi(2))
+                    .sum::<f64>()
+                    .sqrt()
             })
             .fold(0.0, f64::max);
         assert!((biggest - 1.0).abs() < 1e-12, "{biggest}");
@@ -109,12 +109,19 @@ fn a_bar_ring_has_the_frequencies_opensees_finds() {
         .map(str::to_string)
         .unwrap_or_else(|| panic!("no JSON line: {}", text(&o)));
     let v: Value = serde_json::from_str(&line).unwrap();
-    let (ours, theirs) = (v["ours"].as_array().unwrap(), v["opensees"].as_array().unwrap());
+    let (ours, theirs) = (
+        v["ours"].as_array().unwrap(),
+        v["opensees"].as_array().unwrap(),
+    );
     assert_eq!(ours.len(), 10);
     assert_eq!(theirs.len(), 10);
     assert_eq!(v["mechanisms"].as_u64(), Some(0));
     for (i, (a, b)) in ours.iter().zip(theirs).enumerate() {
         let (a, b) = (a.as_f64().unwrap(), b.as_f64().unwrap());
-        assert!((a - b).abs() <= 1e-6 * b, "mode {}: {a} Hz against OpenSees {b} Hz", i + 1);
+        assert!(
+            (a - b).abs() <= 1e-6 * b,
+            "mode {}: {a} Hz against OpenSees {b} Hz",
+            i + 1
+        );
     }
 }

@@ -7,6 +7,7 @@
 //! input named by its flag.
 
 use super::{run, temp_dir};
+use crate::text;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
@@ -14,14 +15,6 @@ fn model(name: &str) -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
         .join("models")
         .join(name)
-}
-
-fn text(o: &std::process::Output) -> String {
-    format!(
-        "{}{}",
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    )
 }
 
 /// `simulate MODEL --report DIR/NAME.html --json DIR/NAME.json`: the two

@@ -5,19 +5,11 @@
 use serde_json::Value;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::process::Command;
 use std::time::{Duration, Instant};
 
 use super::{run, temp_dir, BIN};
-
-fn text(o: &Output) -> String {
-    format!(
-        "exit {:?}\nstdout:\n{}\nstderr:\n{}",
-        o.status.code(),
-        String::from_utf8_lossy(&o.stdout),
-        String::from_utf8_lossy(&o.stderr)
-    )
-}
+use crate::text;
 
 /// A sweep file in `dir` on the bundled mast, with these `[[param]]` tables.
 fn mast_sweep(dir: &Path, name: &str, seed: u64, samples: Option<u64>, params: &str) -> PathBuf {

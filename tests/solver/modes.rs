@@ -35,7 +35,9 @@ fn element(kind: &str, name: &str, joints: &[&str], extra: &str) -> String {
 }
 
 fn modes_of(text: &str, count: usize) -> Modes {
-    let m = truss_deploy::model::parse(text, "test.toml").expect("model parses").model;
+    let m = truss_deploy::model::parse(text, "test.toml")
+        .expect("model parses")
+        .model;
     let lin = Linearization::deployed(&m);
     natural_modes(&m, &lin, count).expect("modes")
 }
@@ -46,7 +48,10 @@ fn omega(m: &Modes, i: usize) -> f64 {
 
 fn close(a: f64, b: f64, tol: f64, what: &str) {
     let rel = (a - b).abs() / b.abs();
-    assert!(rel <= tol, "{what}: {a:.15e} against {b:.15e} (rel {rel:.2e} > {tol:.0e})");
+    assert!(
+        rel <= tol,
+        "{what}: {a:.15e} against {b:.15e} (rel {rel:.2e} > {tol:.0e})"
+    );
 }
 
 /// Joint C (mass m) hangs from supports A, B on two bars of different EA,
@@ -59,11 +64,25 @@ fn a_two_bar_truss_has_the_closed_form_frequencies() {
     let mut rest = element("support", "sA", &["A"], "fix = \"xyz\"");
     rest += &element("support", "sB", &["B"], "fix = \"xyz\"");
     rest += &element("support", "sC", &["C"], "fix = \"y\"");
-    rest += &element("bar", "b1", &["A", "C"], &format!("axial_stiffness_n = {ea1:?}"));
-    rest += &element("bar", "b2", &["B", "C"], &format!("axial_stiffness_n = {ea2:?}"));
+    rest += &element(
+        "bar",
+        "b1",
+        &["A", "C"],
+        &format!("axial_stiffness_n = {ea1:?}"),
+    );
+    rest += &element(
+        "bar",
+        "b2",
+        &["B", "C"],
+        &format!("axial_stiffness_n = {ea2:?}"),
+    );
     let text = model_text(
         "two_bar",
-        &[("A", [-a, 0.0, 0.0], 1.0), ("B", [a, 0.0, 0.0], 1.0), ("C", [0.0, 0.0, h], m)],
+        &[
+            ("A", [-a, 0.0, 0.0], 1.0),
+            ("B", [a, 0.0, 0.0], 1.0),
+            ("C", [0.0, 0.0, h], m),
+        ],
         &rest,
     );
     let modes = modes_of(&text, 5);
@@ -78,8 +97,18 @@ fn a_two_bar_truss_has_the_closed_form_frequencies() {
     let kxz = (k1 - k2) * cx * cz;
     let (tr, det) = (kxx + kzz, kxx * kzz - kxz * kxz);
     let disc = (tr * tr / 4.0 - det).sqrt();
-    close(omega(&modes, 0), ((tr / 2.0 - disc) / m).sqrt(), 1e-10, "first");
-    close(omega(&modes, 1), ((tr / 2.0 + disc) / m).sqrt(), 1e-10, "second");
+    close(
+        omega(&modes, 0),
+        ((tr / 2.0 - disc) / m).sqrt(),
+        1e-10,
+        "first",
+    );
+    close(
+        omega(&modes, 1),
+        ((tr / 2.0 + disc) / m).sqrt(),
+        1e-10,
+        "second",
+    );
     assert!(modes.modes.iter().all(|md| md.kind == ModeKind::Elastic));
     // Freed from its plane, C swings in y on nothing: a mechanism, named.
     let text = text.replace("fix = \"y\"", "fix = \"\"").replace(
@@ -90,8 +119,16 @@ fn a_two_bar_truss_has_the_closed_form_frequencies() {
     assert_eq!(modes.degrees_of_freedom, 3);
     assert_eq!(modes.mechanisms, 1);
     assert_eq!(modes.modes[0].kind, ModeKind::Mechanism);
-    assert!(modes.modes[0].shape[2][1].abs() > 0.999, "the mechanism is C's y motion");
-    close(omega(&modes, 1), ((tr / 2.0 - disc) / m).sqrt(), 1e-10, "first elastic, unchanged");
+    assert!(
+        modes.modes[0].shape[2][1].abs() > 0.999,
+        "the mechanism is C's y motion"
+    );
+    close(
+        omega(&modes, 1),
+        ((tr / 2.0 - disc) / m).sqrt(),
+        1e-10,
+        "first elastic, unchanged",
+    );
 }
 
 /// N equal masses on a line, joined by equal bars (k = EA / l), the first
@@ -101,8 +138,11 @@ fn a_two_bar_truss_has_the_closed_form_frequencies() {
 fn a_spring_mass_chain_has_the_closed_form_frequencies() {
     let (n, l, m, ea) = (7usize, 0.25, 0.3, 5.0e4);
     let names: Vec<String> = (0..=n).map(|i| format!("J{i}")).collect();
-    let joints: Vec<(&str, [f64; 3], f64)> =
-        names.iter().enumerate().map(|(i, s)| (s.as_str(), [i as f64 * l, 0.0, 0.0], m)).collect();
+    let joints: Vec<(&str, [f64; 3], f64)> = names
+        .iter()
+        .enumerate()
+        .map(|(i, s)| (s.as_str(), [i as f64 * l, 0.0, 0.0], m))
+        .collect();
     let mut rest = element("support", "clamp", &["J0"], "fix = \"xyz\"");
     for i in 1..=n {
         rest += &element("support", &format!("line{i}"), &[&names[i]], "fix = \"yz\"");
@@ -117,8 +157,8 @@ fn a_spring_mass_chain_has_the_closed_form_frequencies() {
     assert_eq!(modes.degrees_of_freedom, n);
     let k = ea / l;
     for j in 1..=n {
-        let exact = 2.0 * (k / m).sqrt()
-            * ((2 * j - 1) as f64 * PI / (2.0 * (2 * n + 1) as f64)).sin();
+        let exact =
+            2.0 * (k / m).sqrt() * ((2 * j - 1) as f64 * PI / (2.0 * (2 * n + 1) as f64)).sin();
         close(omega(&modes, j - 1), exact, 1e-10, &format!("mode {j}"));
         assert_eq!(modes.modes[j - 1].kind, ModeKind::Elastic);
     }
@@ -197,10 +237,19 @@ fn check_string(modes: &Modes, n: usize, scale: f64, kind: ModeKind) {
     for k in 1..=n {
         let exact = scale * (k as f64 * PI / (2.0 * (n + 1) as f64)).sin();
         let md = &modes.modes[k - 1];
-        close(2.0 * PI * md.frequency_hz, exact, 1e-8, &format!("transverse mode {k}"));
+        close(
+            2.0 * PI * md.frequency_hz,
+            exact,
+            1e-8,
+            &format!("transverse mode {k}"),
+        );
         assert_eq!(md.kind, kind, "mode {k}");
         let along_z: f64 = md.shape.iter().map(|u| u[2] * u[2]).sum();
-        let all: f64 = md.shape.iter().map(|u| u.iter().map(|v| v * v).sum::<f64>()).sum();
+        let all: f64 = md
+            .shape
+            .iter()
+            .map(|u| u.iter().map(|v| v * v).sum::<f64>())
+            .sum();
         assert!(along_z > (1.0 - 1e-12) * all, "mode {k} is transverse");
     }
 }
@@ -208,7 +257,10 @@ fn check_string(modes: &Modes, n: usize, scale: f64, kind: ModeKind) {
 #[test]
 fn a_string_pulled_through_its_bars_vibrates_on_their_geometric_stiffness() {
     let (modes, n, scale) = beaded_string("bars");
-    assert!((modes.max_preload_n - 12.5).abs() < 1e-9 * 12.5, "the bars carry T");
+    assert!(
+        (modes.max_preload_n - 12.5).abs() < 1e-9 * 12.5,
+        "the bars carry T"
+    );
     check_string(&modes, n, scale, ModeKind::Elastic);
 }
 
@@ -241,14 +293,24 @@ fn a_chain_pushed_by_its_cable_is_unstable_by_the_same_amounts() {
 fn a_simulators_state_at_rest_has_the_strings_modes() {
     let (deployed, n, scale) = beaded_string("bars");
     let text = beaded_string_text("bars");
-    let m = truss_deploy::model::parse(&text, "test.toml").unwrap().model;
+    let m = truss_deploy::model::parse(&text, "test.toml")
+        .unwrap()
+        .model;
     let sim = truss_deploy::solver::Simulator::new(m, truss_deploy::solver::Options::default())
         .expect("simulator");
     let a_max = sim.state().a.iter().fold(0.0f64, |a, v| a.max(v.abs()));
-    assert!(a_max < 1e-9, "the string starts at rest in equilibrium ({a_max:.2e} m/s^2)");
+    assert!(
+        a_max < 1e-9,
+        "the string starts at rest in equilibrium ({a_max:.2e} m/s^2)"
+    );
     let lin = Linearization::of_state(sim.model(), sim.state());
     assert_eq!(lin.geometry, "state");
     let modes = natural_modes(sim.model(), &lin, n).expect("modes");
     check_string(&modes, n, scale, ModeKind::Elastic);
-    close(modes.max_preload_n, deployed.max_preload_n, 1e-9, "the preload");
+    close(
+        modes.max_preload_n,
+        deployed.max_preload_n,
+        1e-9,
+        "the preload",
+    );
 }

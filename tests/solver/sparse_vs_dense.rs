@@ -163,7 +163,11 @@ fn bundled_models_deploy_identically() {
             // The same fold on a free bus: the six rigid motions more.
             let model = m();
             let (before, _) = truss_deploy::solver::mobility::before_and_after_locks(&model);
-            assert_eq!(before.mechanisms, model.locks.len() / 3 - 3 + 1 + 6, "{name}");
+            assert_eq!(
+                before.mechanisms,
+                model.locks.len() / 3 - 3 + 1 + 6,
+                "{name}"
+            );
         } else {
             compare_runs(&name, m, 100, false);
         }

@@ -125,10 +125,16 @@ impl BusParams {
         let j = self.inertia_kg_m2;
         let tr = j[0] + j[1] + j[2];
         if !(self.mass_kg.is_finite() && self.mass_kg > 0.0) {
-            return Err(GenerateError(format!("--bus-mass-kg {}: give a positive mass", self.mass_kg)));
+            return Err(GenerateError(format!(
+                "--bus-mass-kg {}: give a positive mass",
+                self.mass_kg
+            )));
         }
         if !(self.offset_m.is_finite() && self.offset_m > 0.0) {
-            return Err(GenerateError(format!("--bus-offset-m {}: give a positive distance", self.offset_m)));
+            return Err(GenerateError(format!(
+                "--bus-offset-m {}: give a positive distance",
+                self.offset_m
+            )));
         }
         for k in 0..3 {
             let others = tr - j[k];

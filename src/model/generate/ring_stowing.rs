@@ -618,10 +618,16 @@ fn bus_note(p: &RingParams) -> String {
 /// bus's +z vertex (a `coplanar`). Appends the bus joints to `joints`.
 fn bus_mount(p: &RingParams, joints: &mut Vec<JointDoc>) -> Result<Vec<ElementDoc>, GenerateError> {
     let pos = |name: &str, js: &[JointDoc]| -> [f64; 3] {
-        js.iter().find(|j| j.name == name).expect("ring joint").position_m
+        js.iter()
+            .find(|j| j.name == name)
+            .expect("ring joint")
+            .position_m
     };
     let refpos = |name: &str, js: &[JointDoc]| -> [f64; 3] {
-        js.iter().find(|j| j.name == name).and_then(|j| j.reference_m).expect("reference")
+        js.iter()
+            .find(|j| j.name == name)
+            .and_then(|j| j.reference_m)
+            .expect("reference")
     };
     let (ob, ot) = (pos("O0_b", joints), pos("O0_t", joints));
     // outward: from the deployed ring's centre to O0_b, horizontally
@@ -645,13 +651,23 @@ fn bus_mount(p: &RingParams, joints: &mut Vec<JointDoc>) -> Result<Vec<ElementDo
     for (suffix, off, mass) in p.bus.vertices()? {
         let x = [centre[0] + off[0], centre[1] + off[1], centre[2] + off[2]];
         let name = format!("BUS_{suffix}");
-        joints.push(JointDoc { name: name.clone(), position_m: x, mass_kg: mass, reference_m: Some(x) });
+        joints.push(JointDoc {
+            name: name.clone(),
+            position_m: x,
+            mass_kg: mass,
+            reference_m: Some(x),
+        });
         body.push(name);
     }
     body.push("O0_b".into());
     body.push("O0_t".into());
     Ok(vec![
-        ElementDoc { kind: "rigid_body".into(), name: "bus".into(), joints: body, params: vec![] },
+        ElementDoc {
+            kind: "rigid_body".into(),
+            name: "bus".into(),
+            joints: body,
+            params: vec![],
+        },
         ElementDoc {
             kind: "coplanar".into(),
             name: "bus_fitting".into(),

@@ -48,7 +48,10 @@ pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, Elem
         [v.x, v.y, v.z]
     };
     let dist = |i: usize, j: usize| (at(x0, spec.joints[j]) - at(x0, spec.joints[i])).norm();
-    let size = (0..k).flat_map(|i| (0..k).map(move |j| (i, j))).map(|(i, j)| dist(i, j)).fold(0.0, f64::max);
+    let size = (0..k)
+        .flat_map(|i| (0..k).map(move |j| (i, j)))
+        .map(|(i, j)| dist(i, j))
+        .fold(0.0, f64::max);
     let base = volume6(p(0), p(1), p(2), p(3)).abs();
     if !(base > 1e-6 * size.powi(3)) {
         return Err(ElementError::Geometry(format!(
@@ -67,7 +70,10 @@ pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, Elem
         let (best, vol) = triples
             .iter()
             .map(|t| (t, volume6(p(i), p(t[0]), p(t[1]), p(t[2])).abs()))
-            .fold((&triples[0], -1.0), |acc, c| if c.1 > acc.1 { c } else { acc });
+            .fold(
+                (&triples[0], -1.0),
+                |acc, c| if c.1 > acc.1 { c } else { acc },
+            );
         if !(vol > 1e-6 * size.powi(3)) {
             return Err(ElementError::Geometry(format!(
                 "joint {} of the rigid body lies in a plane with every three of its first four joints; move it off them",
@@ -111,7 +117,8 @@ impl Constraint for RigidBody {
         out.fill(0.0);
         for r in 0..self.links.len() {
             let (a, b, _) = self.links[r];
-            self.row(r).jacobian(x, &mut out[r * w..(r + 1) * w], 3 * a, 3 * b);
+            self.row(r)
+                .jacobian(x, &mut out[r * w..(r + 1) * w], 3 * a, 3 * b);
         }
     }
     fn adot_xdot(&self, x: &[f64], v: &[f64], out: &mut [f64]) {

@@ -426,7 +426,6 @@ fn rigid_compliance(model: &Model) -> f64 {
     model.solver.rigid_row_compliance_rel * model.stiffest_compliance_m_per_n
 }
 
-
 /// A copy of a trial step, to come back to after trials of other lengths.
 #[derive(Default)]
 pub(super) struct TrialCopy {
