@@ -95,7 +95,7 @@ pub struct RunSummary {
     /// length at the end of the run (`record::Frame`).
     pub members: Vec<MemberSummary>,
     /// Per rigid body (a spacecraft bus), its attitude change and rates
-    /// (`record::bodies`; `simulate`'s summary, empty in a sweep's rows).
+    /// (`record::bodies`; in `simulate`'s summary and a sweep's rows).
     pub bodies: Vec<crate::record::bodies::BodySummary>,
     /// With a rigid body: the system's linear and angular momentum and
     /// their drift over the run (null otherwise).

@@ -94,6 +94,14 @@ def test_analyze_is_the_cli_report(cli, tmp_path, name):
     assert td.load(MODELS / f"{name}.toml").analyze() == json.loads(out.read_text())
 
 
+def test_a_ring_on_a_bus_is_the_clis(cli, tmp_path):
+    out = tmp_path / "bus.toml"
+    cli("generate", "ring", "--sides", "12", "--mount", "bus", "--bus-mass-kg", "250", "--bus-inertia", "40,55,70", "-o", out)
+    m = td.generate.ring(sides=12, mount="bus", bus_mass_kg=250.0, bus_inertia=(40, 55, 70))
+    assert m.to_toml() == out.read_text()
+    assert sum(m.joint_mass(n) for n in m.joint_names if n.startswith("BUS_")) == pytest.approx(250.0, rel=1e-12)
+
+
 def test_modes_are_the_cli_modes(cli, tmp_path):
     out = tmp_path / "m.json"
     cli("analyze", MODELS / "double_ring.toml", "--modes", "4", "--json", out)

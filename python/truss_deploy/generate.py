@@ -7,7 +7,7 @@ the command's default, and the command's checks apply (a bad value raises
 ValueError with its message). The same names are a sweep's ``[base.args]``.
 """
 
-from typing import Optional, Union
+from typing import Optional, Sequence, Union
 
 from ._native import Model, _generate
 
@@ -85,13 +85,18 @@ def ring(
     stroke_stop_damping: Optional[float] = None,
     inner_chord_m: Optional[float] = None,
     members: Optional[str] = None,
+    bus_mass_kg: Optional[float] = None,
+    bus_inertia: Optional[Sequence[float]] = None,
+    bus_offset_m: Optional[float] = None,
 ) -> Model:
     """Double-ring truss (``generate ring``; the bay-by-bay ring by default).
 
     sides: 6 to 360 (default 18). sync: the synchronized ring (True, or its
     gears: "both", "axial", "radial", "none"). stow: the one-mechanism
     stowing ring. bay_by_bay: the bay-by-bay ring (the default). mount:
-    "hub", "frame0" or "post". tension_n: drive tension (N). mu: pulley
+    "hub", "frame0", "post" or "bus" (a free-floating spacecraft bus:
+    bus_mass_kg, bus_inertia (Ixx, Iyy, Izz, kg m^2), bus_offset_m (m);
+    docs/bus.md). tension_n: drive tension (N). mu: pulley
     friction. damping: per joint (N s/m). start_deg: tilt of the outer bays'
     chords at the start (deg, 0 = deployed). latch_stiffness, latch_damping:
     compliant latches (N/m, N s/m). gear_stiffness, gear_damping: the
@@ -99,7 +104,10 @@ def ring(
     end stops at the sleeves' stroke ends (N/m, N s/m; 0 for none).
     inner_chord_m: inner chord (m). members: "elastic" or "rigid".
     """
-    return model("ring", **{k: v for k, v in locals().items()})
+    options = dict(locals())
+    if bus_inertia is not None:
+        options["bus_inertia"] = ",".join(repr(float(v)) for v in bus_inertia)
+    return model("ring", **options)
 
 
 def sail(

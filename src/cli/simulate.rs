@@ -480,15 +480,7 @@ pub fn run(a: SimulateArgs) -> Result<(), Failure> {
         reason,
         message.clone(),
     );
-    let summary = if bodies.has_bodies() {
-        run::RunSummary {
-            bodies: bodies.bodies(),
-            momentum: Some(bodies.momentum()),
-            ..summary
-        }
-    } else {
-        summary
-    };
+    let summary = bodies.complete(summary);
     print_summary(&summary);
     if let Some(j) = &a.json {
         let text = serde_json::to_string_pretty(&summary).expect("summary serializes") + "\n";

@@ -169,6 +169,19 @@ impl BodyRecorder {
             .collect()
     }
 
+    /// `summary` with this recorder's bodies and momentum (when the model
+    /// has a rigid body; unchanged otherwise).
+    pub fn complete(&self, summary: crate::run::RunSummary) -> crate::run::RunSummary {
+        if !self.has_bodies() {
+            return summary;
+        }
+        crate::run::RunSummary {
+            bodies: self.bodies(),
+            momentum: Some(self.momentum()),
+            ..summary
+        }
+    }
+
     pub fn momentum(&self) -> MomentumSummary {
         let rel = |d: f64, s: f64| if s > 0.0 { d / s } else { 0.0 };
         MomentumSummary {

@@ -241,6 +241,15 @@ pub fn to_parquet(
         false,
     ));
     cols.push(opt_f64("first_frequency_hz", f(|r| r.first_frequency_hz)));
+    cols.push(opt_f64("bus_peak_rate_rad_s", f(|r| r.bus_peak_rate_rad_s)));
+    cols.push(opt_f64(
+        "bus_attitude_change_deg",
+        f(|r| r.bus_attitude_change_deg),
+    ));
+    cols.push(opt_f64(
+        "angular_momentum_drift_rel",
+        f(|r| r.angular_momentum_drift_rel),
+    ));
     let message = format!(
         "message sweep {{ {} }}",
         cols.iter()

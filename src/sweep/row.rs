@@ -81,6 +81,12 @@ pub struct Row {
     pub last_latch: Option<String>,
     /// The deployed truss's first natural frequency (Hz; `RunSummary::first_frequency_hz`).
     pub first_frequency_hz: Option<f64>,
+    /// The first rigid body's (a spacecraft bus) peak angular rate (rad/s)
+    /// and final attitude change (deg), and the system's angular momentum
+    /// drift (`RunSummary::bodies`, `momentum`); null without a rigid body.
+    pub bus_peak_rate_rad_s: Option<f64>,
+    pub bus_attitude_change_deg: Option<f64>,
+    pub angular_momentum_drift_rel: Option<f64>,
 }
 
 /// Stop reasons of rows that ran as asked (the sweep's exit status 0).
@@ -123,6 +129,9 @@ impl Row {
             max_latch_peak_force_n: None,
             last_latch: None,
             first_frequency_hz: None,
+            bus_peak_rate_rad_s: None,
+            bus_attitude_change_deg: None,
+            angular_momentum_drift_rel: None,
         }
     }
 
@@ -178,6 +187,9 @@ impl Row {
                 .map(|l| l.name.clone()),
             latches,
             first_frequency_hz: s.first_frequency_hz,
+            bus_peak_rate_rad_s: s.bodies.first().map(|b| b.peak_rate_rad_s),
+            bus_attitude_change_deg: s.bodies.first().map(|b| b.final_attitude_change_deg),
+            angular_momentum_drift_rel: s.momentum.as_ref().map(|m| m.angular_drift_rel),
         }
     }
 
@@ -275,9 +287,13 @@ pub fn run_model_recorded(
         }
         None => None,
     };
+    let mut bodies = truss_deploy_core::record::bodies::BodyRecorder::new(&sim);
     let mut recorders: Vec<&mut dyn truss_deploy_core::record::Recorder> = Vec::new();
     if let Some(r) = recorder.as_mut() {
         recorders.push(r);
+    }
+    if bodies.has_bodies() {
+        recorders.push(&mut bodies);
     }
     let stop = run::run_loop(&mut sim, &checks, limits, &mut recorders);
     let summary = run::summarize(
@@ -290,6 +306,7 @@ pub fn run_model_recorded(
         stop.reason,
         stop.message,
     );
+    let summary = bodies.complete(summary);
     Row {
         wall_time_s: start.elapsed().as_secs_f64(),
         ..Row::from_summary(index, seed, params, &summary)
