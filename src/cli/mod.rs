@@ -91,6 +91,10 @@ struct AnalyzeArgs {
     /// Draw the first modes (up to 6) as an SVG (needs --modes).
     #[arg(long, value_name = "FILE", requires = "modes")]
     modes_svg: Option<PathBuf>,
+    /// Write the truss and every mode's shape as VTK PolyData for ParaView
+    /// (needs --modes).
+    #[arg(long, value_name = "FILE.vtp", requires = "modes")]
+    modes_vtk: Option<PathBuf>,
 }
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
@@ -491,6 +495,9 @@ fn analyze(a: AnalyzeArgs) -> Result<(), Failure> {
     if let Some(svg) = &a.modes_svg {
         output::check_outputs(&[a.model.as_path()], &[("--modes-svg", svg.as_path())])?;
     }
+    if let Some(vtp) = &a.modes_vtk {
+        output::check_outputs(&[a.model.as_path()], &[("--modes-vtk", vtp.as_path())])?;
+    }
     if a.modes == Some(0) {
         return Err(Failure::input(
             "--modes 0: ask for at least one mode".to_string(),
@@ -565,6 +572,12 @@ fn analyze(a: AnalyzeArgs) -> Result<(), Failure> {
         if let Some(svg) = &a.modes_svg {
             plot::modes_svg(svg, &model, &lin.x, &modes).map_err(Failure::run)?;
             say!("mode shapes drawn in {}", svg.display());
+        }
+        if let Some(vtp) = &a.modes_vtk {
+            let layout = crate::record::FrameLayout::new(&model);
+            let text = crate::record::vtk::modes_polydata(&layout, &lin.x, &modes);
+            output::write_atomic(vtp, text.as_bytes()).map_err(Failure::run)?;
+            say!("mode shapes written to {} (VTK PolyData)", vtp.display());
         }
         report.modes = Some(modes);
     }

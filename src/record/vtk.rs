@@ -54,6 +54,19 @@ fn array<T: std::fmt::LowerExp>(
     out.push_str("\n        </DataArray>\n");
 }
 
+/// A field-data array: VTK's reader takes its length from
+/// `NumberOfTuples` (without it the array reads empty).
+fn field_array(out: &mut String, name: &str, vals: &[f64]) {
+    let _ = write!(
+        out,
+        "        <DataArray type=\"Float64\" Name=\"{name}\" NumberOfTuples=\"{}\" format=\"ascii\">\n",
+        vals.len()
+    );
+    let v: Vec<String> = vals.iter().map(|x| format!("{x:e}")).collect();
+    out.push_str(&v.join(" "));
+    out.push_str("\n        </DataArray>\n");
+}
+
 fn ints(out: &mut String, name: &str, vals: impl Iterator<Item = i64>) {
     let _ = writeln!(
         out,
@@ -73,14 +86,15 @@ pub fn polydata(layout: &FrameLayout, f: &Frame) -> String {
         "<VTKFile type=\"PolyData\" version=\"1.0\" byte_order=\"LittleEndian\" header_type=\"UInt64\">\n",
     );
     s.push_str("  <PolyData>\n");
+    // (the time of the frame, for a reader of one file alone: field data
+    // belong to the dataset, before its pieces)
+    s.push_str("    <FieldData>\n");
+    field_array(&mut s, "TimeValue", &[f.t_s]);
+    s.push_str("    </FieldData>\n");
     let _ = writeln!(
         s,
         "    <Piece NumberOfPoints=\"{np}\" NumberOfVerts=\"0\" NumberOfLines=\"{nl}\" NumberOfStrips=\"0\" NumberOfPolys=\"0\">"
     );
-    // (the time of the frame, for a reader of one file alone)
-    s.push_str("      <FieldData>\n");
-    array(&mut s, "Float64", Some("TimeValue"), 1, [f.t_s].into_iter());
-    s.push_str("      </FieldData>\n");
     s.push_str("      <PointData Vectors=\"velocity_m_s\" Scalars=\"mass_kg\">\n");
     array(&mut s, "Float64", Some("velocity_m_s"), 3, f.v.iter());
     array(
@@ -123,19 +137,75 @@ pub fn polydata(layout: &FrameLayout, f: &Frame) -> String {
     s.push_str("      <Points>\n");
     array(&mut s, "Float64", Some("Points"), 3, f.x.iter());
     s.push_str("      </Points>\n");
+    lines(&mut s, layout);
+    s.push_str("    </Piece>\n  </PolyData>\n</VTKFile>\n");
+    s
+}
+
+/// `analyze --modes-vtk FILE`: the truss at the geometry the modes were
+/// found at (points the joints, lines the members, as a frame's), with
+/// point data `mode_01`, `mode_02`, ... (each mode's shape, 3 components,
+/// the largest joint displacement 1) and `mass_kg`, and field data
+/// `frequency_hz` (one value per mode, in order). In ParaView, Warp By
+/// Vector with a mode's array draws it.
+pub fn modes_polydata(
+    layout: &FrameLayout,
+    x: &[f64],
+    modes: &crate::solver::modes::Modes,
+) -> String {
+    let (np, nl) = (layout.joints.len(), layout.members.len());
+    let mut s = String::new();
+    s.push_str("<?xml version=\"1.0\"?>\n");
+    s.push_str(
+        "<VTKFile type=\"PolyData\" version=\"1.0\" byte_order=\"LittleEndian\" header_type=\"UInt64\">\n",
+    );
+    s.push_str("  <PolyData>\n");
+    s.push_str("    <FieldData>\n");
+    let f: Vec<f64> = modes.modes.iter().map(|m| m.frequency_hz).collect();
+    field_array(&mut s, "frequency_hz", &f);
+    s.push_str("    </FieldData>\n");
+    let _ = writeln!(
+        s,
+        "    <Piece NumberOfPoints=\"{np}\" NumberOfVerts=\"0\" NumberOfLines=\"{nl}\" NumberOfStrips=\"0\" NumberOfPolys=\"0\">"
+    );
+    s.push_str("      <PointData Scalars=\"mass_kg\">\n");
+    for (k, m) in modes.modes.iter().enumerate() {
+        let name = format!("mode_{:02}", k + 1);
+        array(&mut s, "Float64", Some(&name), 3, m.shape.iter().flatten());
+    }
+    array(
+        &mut s,
+        "Float64",
+        Some("mass_kg"),
+        1,
+        layout.joint_mass_kg.iter(),
+    );
+    s.push_str("      </PointData>\n");
+    s.push_str("      <Points>\n");
+    array(&mut s, "Float64", Some("Points"), 3, x.iter());
+    s.push_str("      </Points>\n");
+    lines(&mut s, layout);
+    s.push_str("    </Piece>\n  </PolyData>\n</VTKFile>\n");
+    s
+}
+
+/// The members as VTK lines.
+fn lines(s: &mut String, layout: &FrameLayout) {
     s.push_str("      <Lines>\n");
     ints(
-        &mut s,
+        s,
         "connectivity",
         layout
             .members
             .iter()
             .flat_map(|m| m.joints.map(|j| j as i64)),
     );
-    ints(&mut s, "offsets", (1..=nl).map(|k| 2 * k as i64));
+    ints(
+        s,
+        "offsets",
+        (1..=layout.members.len()).map(|k| 2 * k as i64),
+    );
     s.push_str("      </Lines>\n");
-    s.push_str("    </Piece>\n  </PolyData>\n</VTKFile>\n");
-    s
 }
 
 /// The collection of the frames written: (time, file name) per frame.

@@ -303,6 +303,7 @@ print(json.dumps({
   "largest_force": max(abs(m[f"{n}.force_n"].iloc[k]) for n in members),
   "state_ok": all(int(state[i]) == codes[l[f"{n}.state"].iloc[k]] for i, n in enumerate(members)),
   "kinds": [int(x) for x in kind], "joints": len(joints), "members": len(members),
+  "time_value": p.GetFieldData().GetArray("TimeValue").GetValue(0), "k": k,
 }))
 "#;
     let r = python(&py, script, &[&hist, &series]);
@@ -311,6 +312,11 @@ print(json.dumps({
     assert_eq!(
         r["times"], r["t_s"],
         "the time steps are the history's times"
+    );
+    let k = r["k"].as_u64().unwrap() as usize;
+    assert_eq!(
+        r["time_value"], r["times"][k],
+        "a frame read alone has its time (field data TimeValue)"
     );
     assert_eq!(r["points"], r["joints"]);
     assert_eq!(r["lines"], r["members"]);

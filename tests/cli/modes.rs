@@ -125,3 +125,61 @@ fn a_bar_ring_has_the_frequencies_opensees_finds() {
         );
     }
 }
+
+/// `--modes-vtk`: VTK's own XML reader gets the truss (a point per joint,
+/// a line per member), each mode's shape as point data equal to the JSON's
+/// to the last digit, and the frequencies as field data.
+#[test]
+fn mode_shapes_read_back_with_vtk() {
+    let Some(py) = crate::python_with("vtk", None, "TRUSS_REQUIRE_PYARROW", "vtk") else {
+        return;
+    };
+    let d = temp_dir("modes_vtk");
+    let (json, vtp) = (d.join("m.json"), d.join("modes.vtp"));
+    let o = run(&[
+        "analyze".as_ref(),
+        Path::new("models/pantograph_mast.toml").as_os_str(),
+        "--modes".as_ref(),
+        "4".as_ref(),
+        "--json".as_ref(),
+        json.as_os_str(),
+        "--modes-vtk".as_ref(),
+        vtp.as_os_str(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let script = r#"
+import json, sys
+import vtk
+from vtk.util.numpy_support import vtk_to_numpy
+r = vtk.vtkXMLPolyDataReader()
+r.SetFileName(sys.argv[1])
+r.Update()
+p = r.GetOutput()
+modes = json.load(open(sys.argv[2]))["modes"]["modes"]
+shape_diff = max(
+    abs(float(vtk_to_numpy(p.GetPointData().GetArray(f"mode_{k + 1:02d}"))[j][c]) - m["shape"][j][c])
+    for k, m in enumerate(modes) for j in range(len(m["shape"])) for c in range(3))
+f = vtk_to_numpy(p.GetFieldData().GetArray("frequency_hz"))
+print(json.dumps({
+    "points": int(p.GetNumberOfPoints()), "lines": int(p.GetNumberOfLines()),
+    "shape_diff": shape_diff,
+    "freq_diff": max(abs(float(f[k]) - m["frequency_hz"]) for k, m in enumerate(modes)),
+    "modes": len(modes), "frequencies": int(len(f)),
+}))
+"#;
+    let o = std::process::Command::new(&py)
+        .arg("-c")
+        .arg(script)
+        .arg(&vtp)
+        .arg(&json)
+        .output()
+        .expect("run python");
+    assert!(o.status.success(), "{}", text(&o));
+    let v: Value =
+        serde_json::from_slice(&o.stdout).unwrap_or_else(|e| panic!("{e}: {}", text(&o)));
+    assert_eq!(v["points"].as_u64(), Some(10), "{v}");
+    assert_eq!(v["lines"].as_u64(), Some(4), "the mast's four sleeves: {v}");
+    assert_eq!(v["modes"], v["frequencies"]);
+    assert_eq!(v["shape_diff"].as_f64(), Some(0.0), "{v}");
+    assert_eq!(v["freq_diff"].as_f64(), Some(0.0), "{v}");
+}
