@@ -43,7 +43,8 @@ pub struct SimulateArgs {
     #[arg(long)]
     json: Option<PathBuf>,
     /// Write the run's history as Parquet tables into this directory (created if missing):
-    /// joints.parquet, members.parquet, cables.parquet, latches.parquet, energy.parquet.
+    /// joints.parquet, members.parquet, cables.parquet, latches.parquet, energy.parquet,
+    /// bodies.parquet.
     #[arg(long, value_name = "DIR", group = "thinned")]
     history: Option<PathBuf>,
     /// Write the run as a ParaView series into this directory (created if missing):

@@ -49,20 +49,98 @@ pub struct MomentumSummary {
     pub angular_scale_n_m_s: f64,
 }
 
+#[derive(Clone, Debug, PartialEq)]
 struct Body {
     name: String,
     joints: Vec<usize>,
     mass: Vec<f64>,
     /// Initial positions about the initial centre of mass.
     p: Vec<Vector3<f64>>,
-    peak: (f64, f64),
-    last: (f64, f64, [f64; 3]),
 }
 
-/// Samples the bodies and the momenta after every step (`simulate`).
-pub struct BodyRecorder {
+/// A model's rigid bodies and the system's centre of mass at an initial
+/// geometry, against which attitudes and momenta are taken.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Bodies {
     bodies: Vec<Body>,
     c0: Vector3<f64>,
+}
+
+/// One instant: per body (|omega| rad/s, rotation angle rad, unit axis),
+/// and the system's P (N s) and L about the initial centre of mass (N m s)
+/// with their scales, sum m |v| and sum m |x - c_0| |v|.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BodiesNow {
+    pub bodies: Vec<(f64, f64, [f64; 3])>,
+    pub linear_n_s: [f64; 3],
+    pub angular_n_m_s: [f64; 3],
+    pub linear_scale_n_s: f64,
+    pub angular_scale_n_m_s: f64,
+}
+
+impl Bodies {
+    /// The `rigid_body` elements of `model`, at positions `x0`.
+    pub fn of(model: &crate::solver::Model, x0: &[f64]) -> Bodies {
+        let bodies = model
+            .elements
+            .iter()
+            .filter(|e| e.kind() == "rigid_body")
+            .map(|e| {
+                let joints = e.joints().to_vec();
+                let mass: Vec<f64> = joints.iter().map(|&j| model.joints[j].mass_kg).collect();
+                let c = centre(&joints, &mass, x0);
+                Body {
+                    name: e.name().to_string(),
+                    p: joints.iter().map(|&j| joint(x0, j) - c).collect(),
+                    joints,
+                    mass,
+                }
+            })
+            .collect();
+        let all: Vec<usize> = (0..model.n_joints()).collect();
+        let masses: Vec<f64> = model.joints.iter().map(|j| j.mass_kg).collect();
+        Bodies {
+            bodies,
+            c0: centre(&all, &masses, x0),
+        }
+    }
+
+    pub fn names(&self) -> Vec<String> {
+        self.bodies.iter().map(|b| b.name.clone()).collect()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.bodies.is_empty()
+    }
+
+    /// The bodies and the momenta at positions `x`, velocities `v`.
+    pub fn now(&self, model: &crate::solver::Model, x: &[f64], v: &[f64]) -> BodiesNow {
+        let (mut p, mut l) = (Vector3::zeros(), Vector3::zeros());
+        let (mut ps, mut ls) = (0.0, 0.0);
+        for (j, jt) in model.joints.iter().enumerate() {
+            let (r, vj) = (joint(x, j) - self.c0, joint(v, j));
+            p += jt.mass_kg * vj;
+            l += jt.mass_kg * r.cross(&vj);
+            ps += jt.mass_kg * vj.norm();
+            ls += jt.mass_kg * r.norm() * vj.norm();
+        }
+        BodiesNow {
+            bodies: self.bodies.iter().map(|b| attitude(b, x, v)).collect(),
+            linear_n_s: p.into(),
+            angular_n_m_s: l.into(),
+            linear_scale_n_s: ps,
+            angular_scale_n_m_s: ls,
+        }
+    }
+}
+
+/// Samples the bodies and the momenta after every step (`simulate`, a
+/// sweep's samples): peaks, drifts and the last values.
+pub struct BodyRecorder {
+    bodies: Bodies,
+    /// Per body: peak rate and its time; the last (rate, angle, axis).
+    peak: Vec<(f64, f64)>,
+    last: Vec<(f64, f64, [f64; 3])>,
     p0: Vector3<f64>,
     l0: Vector3<f64>,
     p_drift: f64,
@@ -79,33 +157,16 @@ fn joint(x: &[f64], j: usize) -> Vector3<f64> {
 
 impl BodyRecorder {
     pub fn new(sim: &Simulator) -> BodyRecorder {
-        let m = sim.model();
-        let x = &sim.state().x;
-        let bodies = m
-            .elements
-            .iter()
-            .filter(|e| e.kind() == "rigid_body")
-            .map(|e| {
-                let joints = e.joints().to_vec();
-                let mass: Vec<f64> = joints.iter().map(|&j| m.joints[j].mass_kg).collect();
-                let c = centre(&joints, &mass, x);
-                Body {
-                    name: e.name().to_string(),
-                    p: joints.iter().map(|&j| joint(x, j) - c).collect(),
-                    joints,
-                    mass,
-                    peak: (0.0, sim.state().t_s),
-                    last: (0.0, 0.0, [0.0; 3]),
-                }
-            })
-            .collect();
-        let all: Vec<usize> = (0..m.n_joints()).collect();
-        let masses: Vec<f64> = m.joints.iter().map(|j| j.mass_kg).collect();
+        let (m, s) = (sim.model(), sim.state());
+        let bodies = Bodies::of(m, &s.x);
+        let start = bodies.now(m, &s.x, &s.v);
+        let n = bodies.bodies.len();
         let mut r = BodyRecorder {
             bodies,
-            c0: centre(&all, &masses, x),
-            p0: Vector3::zeros(),
-            l0: Vector3::zeros(),
+            peak: vec![(0.0, s.t_s); n],
+            last: vec![(0.0, 0.0, [0.0; 3]); n],
+            p0: start.linear_n_s.into(),
+            l0: start.angular_n_m_s.into(),
             p_drift: 0.0,
             l_drift: 0.0,
             p_scale: 0.0,
@@ -113,8 +174,6 @@ impl BodyRecorder {
             p_last: Vector3::zeros(),
             l_last: Vector3::zeros(),
         };
-        let (p, l) = r.momenta(sim);
-        (r.p0, r.l0) = (p, l);
         r.sample(sim);
         r
     }
@@ -124,47 +183,36 @@ impl BodyRecorder {
         !self.bodies.is_empty()
     }
 
-    fn momenta(&mut self, sim: &Simulator) -> (Vector3<f64>, Vector3<f64>) {
-        let (m, s) = (sim.model(), sim.state());
-        let (mut p, mut l) = (Vector3::zeros(), Vector3::zeros());
-        let (mut ps, mut ls) = (0.0, 0.0);
-        for (j, jt) in m.joints.iter().enumerate() {
-            let (r, v) = (joint(&s.x, j) - self.c0, joint(&s.v, j));
-            p += jt.mass_kg * v;
-            l += jt.mass_kg * r.cross(&v);
-            ps += jt.mass_kg * v.norm();
-            ls += jt.mass_kg * r.norm() * v.norm();
-        }
-        self.p_scale = self.p_scale.max(ps);
-        self.l_scale = self.l_scale.max(ls);
-        (p, l)
-    }
-
     fn sample(&mut self, sim: &Simulator) {
-        let (p, l) = self.momenta(sim);
+        let s = sim.state();
+        let now = self.bodies.now(sim.model(), &s.x, &s.v);
+        let (p, l): (Vector3<f64>, Vector3<f64>) =
+            (now.linear_n_s.into(), now.angular_n_m_s.into());
+        self.p_scale = self.p_scale.max(now.linear_scale_n_s);
+        self.l_scale = self.l_scale.max(now.angular_scale_n_m_s);
         self.p_drift = self.p_drift.max((p - self.p0).norm());
         self.l_drift = self.l_drift.max((l - self.l0).norm());
         (self.p_last, self.l_last) = (p, l);
-        let s = sim.state();
-        for b in &mut self.bodies {
-            let (rate, angle, axis) = attitude(b, &s.x, &s.v);
-            if rate > b.peak.0 {
-                b.peak = (rate, s.t_s);
+        for (k, b) in now.bodies.into_iter().enumerate() {
+            if b.0 > self.peak[k].0 {
+                self.peak[k] = (b.0, s.t_s);
             }
-            b.last = (rate, angle, axis);
+            self.last[k] = b;
         }
     }
 
     pub fn bodies(&self) -> Vec<BodySummary> {
         self.bodies
-            .iter()
-            .map(|b| BodySummary {
-                name: b.name.clone(),
-                peak_rate_rad_s: b.peak.0,
-                peak_rate_time_s: b.peak.1,
-                final_rate_rad_s: b.last.0,
-                final_attitude_change_deg: b.last.1.to_degrees(),
-                final_rotation_axis: b.last.2,
+            .names()
+            .into_iter()
+            .enumerate()
+            .map(|(k, name)| BodySummary {
+                name,
+                peak_rate_rad_s: self.peak[k].0,
+                peak_rate_time_s: self.peak[k].1,
+                final_rate_rad_s: self.last[k].0,
+                final_attitude_change_deg: self.last[k].1.to_degrees(),
+                final_rotation_axis: self.last[k].2,
             })
             .collect()
     }

@@ -111,6 +111,9 @@ pub struct FrameLayout {
     pub members: Vec<MemberInfo>,
     pub cables: Vec<CableInfo>,
     pub latches: Vec<LatchInfo>,
+    /// The rigid bodies (a spacecraft bus) and the centre of mass, at the
+    /// model's initial geometry: attitudes and momenta are taken from it.
+    pub bodies: super::bodies::Bodies,
 }
 
 impl FrameLayout {
@@ -156,6 +159,7 @@ impl FrameLayout {
                 })
                 .collect(),
             latches,
+            bodies: super::bodies::Bodies::of(m, &m.x0),
         }
     }
 }
@@ -199,6 +203,10 @@ pub struct Frame {
     pub energy: Energy,
     pub kinetic_energy_j: f64,
     pub balance_rel_error: f64,
+    /// Per rigid body (`FrameLayout::bodies`): its rotation from the
+    /// model's initial geometry and its rate; the system's linear and
+    /// angular momentum (about the initial centre of mass).
+    pub bodies: super::bodies::BodiesNow,
 }
 
 /// The axial force through a two-joint element (N, tension positive) given
@@ -264,6 +272,7 @@ impl Frame {
             .collect();
         let event = |e: usize| s.locks.iter().find(|ev| ev.element == e);
         let ke = s.kinetic_energy_j(m);
+        let bodies = layout.bodies.now(m, &s.x, &s.v);
         Frame {
             t_s: s.t_s,
             step: s.steps,
@@ -310,6 +319,7 @@ impl Frame {
             energy: s.energy.clone(),
             kinetic_energy_j: ke,
             balance_rel_error: s.energy.balance_rel_error(ke),
+            bodies,
         }
     }
 }

@@ -1,6 +1,6 @@
 //! A run's history as Parquet tables (`simulate --history DIR`, a sweep's
 //! `[sweep] history`): `joints.parquet`, `members.parquet`,
-//! `cables.parquet`, `latches.parquet`, `energy.parquet`, one row per
+//! `cables.parquet`, `latches.parquet`, `energy.parquet`, `bodies.parquet`, one row per
 //! recorded step in each (the first state, every `every`-th step, the last),
 //! wide: columns `step`, `t_s`, then `<name>.<quantity>_<unit>` per joint,
 //! member, cable or latch. The schema is documented in docs/cli.md
@@ -23,7 +23,7 @@ use truss_deploy_core::solver::state::MotorHold;
 use truss_deploy_core::solver::Simulator;
 
 /// The history's tables, in the order they are written.
-pub const TABLES: [&str; 5] = ["joints", "members", "cables", "latches", "energy"];
+pub const TABLES: [&str; 6] = ["joints", "members", "cables", "latches", "energy", "bodies"];
 
 /// The file of `table` in the history directory `dir`.
 pub fn table_path(dir: &Path, table: &str) -> PathBuf {
@@ -171,11 +171,11 @@ fn energy_values(f: &Frame) -> [f64; 14] {
     ]
 }
 
-/// The five tables of a history being recorded, kept in memory until the
+/// The six tables of a history being recorded, kept in memory until the
 /// run ends.
 pub struct History {
     layout: FrameLayout,
-    tables: [Table; 5],
+    tables: [Table; 6],
 }
 
 impl History {
@@ -226,12 +226,22 @@ impl History {
             .iter()
             .map(|n| (n.to_string(), f64s as fn() -> Vals))
             .collect();
+        let mut bodies = per(
+            &layout.bodies.names(),
+            &[("attitude_change_deg", f64s), ("rate_rad_s", f64s)],
+        );
+        for (q, unit) in [("linear_momentum", "n_s"), ("angular_momentum", "n_m_s")] {
+            for c in ["x", "y", "z"] {
+                bodies.push((format!("{q}_{c}_{unit}"), f64s as fn() -> Vals));
+            }
+        }
         let mut tables = [
             Table::new(joints),
             Table::new(members),
             Table::new(cables),
             Table::new(latches),
             Table::new(energy),
+            Table::new(bodies),
         ];
         // (what a reader needs beside the columns: the model, each joint's
         // mass, each member's kind and end joints)
@@ -270,7 +280,7 @@ impl History {
     }
 
     pub fn push(&mut self, f: &Frame) {
-        let [joints, members, cables, latches, energy] = &mut self.tables;
+        let [joints, members, cables, latches, energy, bodies] = &mut self.tables;
         push(
             joints,
             f,
@@ -317,6 +327,20 @@ impl History {
             }),
         );
         push(energy, f, energy_values(f).map(V::F));
+        let b = &f.bodies;
+        push(
+            bodies,
+            f,
+            b.bodies
+                .iter()
+                .flat_map(|&(rate, angle, _)| [V::F(angle.to_degrees()), V::F(rate)])
+                .chain(
+                    b.linear_n_s
+                        .iter()
+                        .chain(&b.angular_n_m_s)
+                        .map(|&v| V::F(v)),
+                ),
+        );
     }
 
     /// The Parquet file of table `i` (in [`TABLES`] order) as bytes.
@@ -382,7 +406,7 @@ impl History {
         Ok(out)
     }
 
-    /// Writes the five tables into `dir`, each atomically. `output` names
+    /// Writes the six tables into `dir`, each atomically. `output` names
     /// the option or key in errors.
     pub fn write(&self, dir: &Path, output: &'static str) -> Result<(), RecordError> {
         for (i, table) in TABLES.iter().enumerate() {

@@ -326,3 +326,72 @@ fn a_symmetric_deployment_on_a_symmetric_bus_leaves_the_attitude_unchanged() {
         s["momentum"]
     );
 }
+
+/// `--history`: `bodies.parquet` holds the bus's attitude and rate at every
+/// step, its last row the summary's final attitude, its largest rate the
+/// summary's peak, and the linear momentum 0 to roundoff all along.
+#[test]
+fn the_history_has_the_bus_over_time() {
+    let Some(py) = crate::python_with(
+        "pandas, pyarrow",
+        None,
+        "TRUSS_REQUIRE_PYARROW",
+        "pandas, pyarrow",
+    ) else {
+        return;
+    };
+    let d = temp_dir("bus_history");
+    let (json, hist) = (d.join("s.json"), d.join("hist"));
+    let o = run(&[
+        "simulate".as_ref(),
+        std::path::Path::new("models/ring_on_bus.toml").as_os_str(),
+        "--json".as_ref(),
+        json.as_os_str(),
+        "--history".as_ref(),
+        hist.as_os_str(),
+    ]);
+    assert!(o.status.success(), "{}", text(&o));
+    let s: Value = serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let script = r#"
+import json, sys
+import pandas as pd
+b = pd.read_parquet(sys.argv[1] + "/bodies.parquet")
+j = pd.read_parquet(sys.argv[1] + "/joints.parquet")
+lin = max(abs(b[f"linear_momentum_{c}_n_s"]).max() for c in "xyz")
+print(json.dumps({
+    "rows": len(b), "joint_rows": len(j),
+    "last_attitude_deg": float(b["bus.attitude_change_deg"].iloc[-1]),
+    "peak_rate": float(b["bus.rate_rad_s"].max()),
+    "peak_t": float(b["t_s"][b["bus.rate_rad_s"].idxmax()]),
+    "linear": float(lin),
+}))
+"#;
+    let o = std::process::Command::new(&py)
+        .arg("-c")
+        .arg(script)
+        .arg(&hist)
+        .output()
+        .expect("python");
+    assert!(o.status.success(), "{}", text(&o));
+    let v: Value =
+        serde_json::from_slice(&o.stdout).unwrap_or_else(|e| panic!("{e}: {}", text(&o)));
+    assert_eq!(v["rows"], v["joint_rows"]);
+    let bus = &s["bodies"][0];
+    let close = |a: f64, b: f64| (a - b).abs() <= 1e-9 * b.abs().max(1e-12);
+    let (att, want) = (
+        v["last_attitude_deg"].as_f64().unwrap(),
+        bus["final_attitude_change_deg"].as_f64().unwrap(),
+    );
+    assert!(close(att, want), "history {att} deg, summary {want} deg");
+    let (peak, want) = (
+        v["peak_rate"].as_f64().unwrap(),
+        bus["peak_rate_rad_s"].as_f64().unwrap(),
+    );
+    assert!(
+        close(peak, want),
+        "history {peak} rad/s, summary {want} rad/s"
+    );
+    assert_eq!(v["peak_t"], bus["peak_rate_time_s"]);
+    let scale = s["momentum"]["linear_scale_n_s"].as_f64().unwrap();
+    assert!(v["linear"].as_f64().unwrap() <= 1e-12 * scale, "{v}");
+}
