@@ -77,8 +77,10 @@ fn ints(out: &mut String, name: &str, vals: impl Iterator<Item = i64>) {
     out.push_str("\n        </DataArray>\n");
 }
 
-/// The VTK XML PolyData of one frame.
-pub fn polydata(layout: &FrameLayout, f: &Frame) -> String {
+/// A PolyData file's opening up to its one piece's: the header, one
+/// field-data array (field data belong to the dataset, before its pieces)
+/// and the piece of the layout's joints and members.
+fn open_polydata(layout: &FrameLayout, field: &str, vals: &[f64]) -> String {
     let (np, nl) = (layout.joints.len(), layout.members.len());
     let mut s = String::new();
     s.push_str("<?xml version=\"1.0\"?>\n");
@@ -86,15 +88,20 @@ pub fn polydata(layout: &FrameLayout, f: &Frame) -> String {
         "<VTKFile type=\"PolyData\" version=\"1.0\" byte_order=\"LittleEndian\" header_type=\"UInt64\">\n",
     );
     s.push_str("  <PolyData>\n");
-    // (the time of the frame, for a reader of one file alone: field data
-    // belong to the dataset, before its pieces)
     s.push_str("    <FieldData>\n");
-    field_array(&mut s, "TimeValue", &[f.t_s]);
+    field_array(&mut s, field, vals);
     s.push_str("    </FieldData>\n");
     let _ = writeln!(
         s,
         "    <Piece NumberOfPoints=\"{np}\" NumberOfVerts=\"0\" NumberOfLines=\"{nl}\" NumberOfStrips=\"0\" NumberOfPolys=\"0\">"
     );
+    s
+}
+
+/// The VTK XML PolyData of one frame.
+pub fn polydata(layout: &FrameLayout, f: &Frame) -> String {
+    // (the time of the frame, for a reader of one file alone)
+    let mut s = open_polydata(layout, "TimeValue", &[f.t_s]);
     s.push_str("      <PointData Vectors=\"velocity_m_s\" Scalars=\"mass_kg\">\n");
     array(&mut s, "Float64", Some("velocity_m_s"), 3, f.v.iter());
     array(
@@ -153,21 +160,8 @@ pub fn modes_polydata(
     x: &[f64],
     modes: &crate::solver::modes::Modes,
 ) -> String {
-    let (np, nl) = (layout.joints.len(), layout.members.len());
-    let mut s = String::new();
-    s.push_str("<?xml version=\"1.0\"?>\n");
-    s.push_str(
-        "<VTKFile type=\"PolyData\" version=\"1.0\" byte_order=\"LittleEndian\" header_type=\"UInt64\">\n",
-    );
-    s.push_str("  <PolyData>\n");
-    s.push_str("    <FieldData>\n");
     let f: Vec<f64> = modes.modes.iter().map(|m| m.frequency_hz).collect();
-    field_array(&mut s, "frequency_hz", &f);
-    s.push_str("    </FieldData>\n");
-    let _ = writeln!(
-        s,
-        "    <Piece NumberOfPoints=\"{np}\" NumberOfVerts=\"0\" NumberOfLines=\"{nl}\" NumberOfStrips=\"0\" NumberOfPolys=\"0\">"
-    );
+    let mut s = open_polydata(layout, "frequency_hz", &f);
     s.push_str("      <PointData Scalars=\"mass_kg\">\n");
     for (k, m) in modes.modes.iter().enumerate() {
         let name = format!("mode_{:02}", k + 1);
