@@ -89,7 +89,11 @@ impl Linearization {
             *qi = model.mass[i] * model.gravity_m_s2[i % 3];
         }
         for (c, t) in model.cables.iter().zip(&segment_tension_n) {
-            add_cable_forces(c, t, &x, &mut q);
+            let eval = super::cable::CableEval {
+                segment_tension_n: t.clone(),
+                ..super::cable::CableEval::for_cable(c)
+            };
+            super::cable::add_forces(c, &eval, &x, &mut q);
         }
         super::springs::ElementSprings::new(model).add_forces(model, &x, &vec![0.0; n], &mut q);
         let row_forces_n = q.iter().map(|v| -v).collect();
@@ -124,19 +128,6 @@ impl Linearization {
                 .map(|c| c.segment_tension_n.clone())
                 .collect(),
             geometry: "state",
-        }
-    }
-}
-
-/// Segment j of a cable pulls its joints p, r together: Q_p += T_j e_j,
-/// Q_r -= T_j e_j (e_j the unit vector p -> r), i.e. Q = -sum_j T_j grad l_j.
-fn add_cable_forces(c: &super::Cable, tension_n: &[f64], x: &[f64], q: &mut [f64]) {
-    for (s, &t) in c.path.windows(2).zip(tension_n) {
-        let d = super::elements::at(x, s[1]) - super::elements::at(x, s[0]);
-        let f = d * (t / d.norm());
-        for k in 0..3 {
-            q[3 * s[0] + k] += f[k];
-            q[3 * s[1] + k] -= f[k];
         }
     }
 }

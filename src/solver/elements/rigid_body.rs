@@ -15,6 +15,7 @@
 
 use super::kernels::Distance;
 use super::{at, Constraint, ElementError, ElementSpec};
+use crate::solver::vec3::Vec3;
 
 #[derive(Debug)]
 pub struct RigidBody {
@@ -27,12 +28,9 @@ pub struct RigidBody {
 /// The parameters a model file may give this element (`elements::REGISTRY`).
 pub const PARAMS: &[&str] = &[];
 
-/// Six times the volume of the tetrahedron p, a, b, c.
-fn volume6(p: [f64; 3], a: [f64; 3], b: [f64; 3], c: [f64; 3]) -> f64 {
-    let d = |u: [f64; 3], v: [f64; 3]| [u[0] - v[0], u[1] - v[1], u[2] - v[2]];
-    let (u, v, w) = (d(a, p), d(b, p), d(c, p));
-    u[0] * (v[1] * w[2] - v[2] * w[1]) - u[1] * (v[0] * w[2] - v[2] * w[0])
-        + u[2] * (v[0] * w[1] - v[1] * w[0])
+/// Six times the volume of the tetrahedron p, a, b, c: (a - p) . ((b - p) x (c - p)).
+fn volume6(p: Vec3, a: Vec3, b: Vec3, c: Vec3) -> f64 {
+    (a - p).dot(&(b - p).cross(&(c - p)))
 }
 
 pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, ElementError> {
@@ -43,10 +41,7 @@ pub fn build(spec: &ElementSpec, x0: &[f64]) -> Result<Box<dyn Constraint>, Elem
             "a rigid body needs at least 4 joints (its first four not in one plane), got {k}"
         )));
     }
-    let p = |i: usize| {
-        let v = at(x0, spec.joints[i]);
-        [v.x, v.y, v.z]
-    };
+    let p = |i: usize| at(x0, spec.joints[i]);
     let dist = |i: usize, j: usize| (at(x0, spec.joints[j]) - at(x0, spec.joints[i])).norm();
     let size = (0..k)
         .flat_map(|i| (0..k).map(move |j| (i, j)))
