@@ -386,7 +386,7 @@ fn projection(c: &mut Criterion, fx: &[Fixture]) {
             if f.kinds.contains(&SolverKind::Sparse) {
                 let mut s = SparseSchur::default();
                 s.factor(&jac, w, SolveMode::Basic).expect("factor");
-                s.correction(&jac, w, &r, &mut dx, &mut mu)
+                s.correction(&jac, w, &r, 0.0, &mut dx, &mut mu)
                     .expect("correction");
                 eprintln!(
                     "{} {what}: sparse solve: {} CG iterations, right-hand side {}",
@@ -403,7 +403,7 @@ fn projection(c: &mut Criterion, fx: &[Fixture]) {
                 let mut s = kind.make();
                 s.factor(&jac, w, SolveMode::Basic).expect("factor");
                 // Sanity: one correction removes most of the violation.
-                s.correction(&jac, w, &r, &mut dx, &mut mu)
+                s.correction(&jac, w, &r, 0.0, &mut dx, &mut mu)
                     .expect("correction");
                 let x1: Vec<f64> = xp.iter().zip(&dx).map(|(x, d)| x - d).collect();
                 let mut r1 = vec![0.0; m];
@@ -416,7 +416,7 @@ fn projection(c: &mut Criterion, fx: &[Fixture]) {
                     max_abs(&r1)
                 );
                 g.bench_function(f.id(what, kind), |b| {
-                    b.iter(|| s.correction(&jac, w, black_box(&r), &mut dx, &mut mu))
+                    b.iter(|| s.correction(&jac, w, black_box(&r), 0.0, &mut dx, &mut mu))
                 });
             }
         }

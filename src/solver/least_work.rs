@@ -216,7 +216,7 @@ impl LeastWork {
         jac.mul(&self.dx, &mut self.r);
         let report = self
             .solver
-            .correction(jac, inv_mass, &self.r, &mut self.dx, lambda)?;
+            .correction(jac, inv_mass, &self.r, 0.0, &mut self.dx, lambda)?;
         if !report.converged || report.least_squares {
             return Ok(false);
         }
@@ -237,7 +237,7 @@ impl LeastWork {
                 jac.mul(&self.force, &mut self.r);
                 let report =
                     self.solver
-                        .correction(jac, inv_mass, &self.r, &mut self.dx, &mut self.mu)?;
+                        .correction(jac, inv_mass, &self.r, 0.0, &mut self.dx, &mut self.mu)?;
                 if !report.converged || report.least_squares {
                     return Ok(false);
                 }
@@ -366,6 +366,7 @@ impl LeastWork {
             &self.jac,
             &model.inv_mass,
             &self.r,
+            0.0,
             &mut self.dx,
             &mut self.mu,
         )?;

@@ -30,6 +30,14 @@ pub struct SolverSettings {
     /// A basic (redundant rows dropped) Newton iteration whose |Phi| shrinks by
     /// less than this factor switches to least-squares corrections.
     pub projection_min_contraction: f64,
+    /// A position correction's linear solve may stop once its residual, the
+    /// |Phi| it leaves to first order, is this fraction of `projection_tol_m`
+    /// (an inexact Newton step: the projection checks every row after it).
+    pub projection_solve_fraction: f64,
+    /// A velocity projection's linear solve may stop once max |A V| is at
+    /// most this fraction of max|A| max|V| (three orders below
+    /// `velocity_redo_floor_rel`, the residual accepted on dropped rows).
+    pub velocity_solve_rel: f64,
     /// Velocity projection: the residual A V on the dropped rows may exceed
     /// this multiple of that on the kept rows before the projection is redone
     /// in least squares (a rank change the probe has not seen).
@@ -285,6 +293,8 @@ impl Default for SolverSettings {
             projection_max_iterations: 25,
             projection_accept_factor: 1e3,
             projection_min_contraction: 0.25,
+            projection_solve_fraction: 0.01,
+            velocity_solve_rel: 1e-13,
             velocity_redo_ratio: 100.0,
             velocity_redo_floor_rel: 1e-10,
             initial_tol_m: 1e-6,
@@ -360,6 +370,8 @@ impl SolverSettings {
                 "projection_min_contraction",
                 self.projection_min_contraction,
             ),
+            ("projection_solve_fraction", self.projection_solve_fraction),
+            ("velocity_solve_rel", self.velocity_solve_rel),
             ("velocity_redo_ratio", self.velocity_redo_ratio),
             ("velocity_redo_floor_rel", self.velocity_redo_floor_rel),
             ("initial_tol_m", self.initial_tol_m),
@@ -422,6 +434,7 @@ impl SolverSettings {
                 "projection_min_contraction",
                 self.projection_min_contraction,
             ),
+            ("projection_solve_fraction", self.projection_solve_fraction),
             ("newmark_rho_max", self.newmark_rho_max),
             ("newmark_stall_ratio", self.newmark_stall_ratio),
             (

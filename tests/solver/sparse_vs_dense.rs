@@ -374,10 +374,10 @@ fn compare_single(model: &Model, x: &[f64], locked: &[bool], seed: u64) {
         let mut av = vec![0.0; m];
         jac.mul(&w, &mut av);
         dense
-            .correction(&jac, &model.inv_mass, &av, &mut dd, &mut md)
+            .correction(&jac, &model.inv_mass, &av, 0.0, &mut dd, &mut md)
             .unwrap();
         sparse
-            .correction(&jac, &model.inv_mass, &av, &mut ds, &mut ms)
+            .correction(&jac, &model.inv_mass, &av, 0.0, &mut ds, &mut ms)
             .unwrap();
         let ex = max_diff(&dd, &ds) / max_abs(&dd);
         eprintln!("basic, consistent r: rel. diff dx {ex:.1e}");
@@ -435,10 +435,10 @@ fn compare_single(model: &Model, x: &[f64], locked: &[bool], seed: u64) {
         let (mut dd, mut md) = (vec![0.0; n], vec![0.0; m]);
         let (mut ds, mut ms) = (vec![0.0; n], vec![0.0; m]);
         dense
-            .correction(&jac, &model.inv_mass, r, &mut dd, &mut md)
+            .correction(&jac, &model.inv_mass, r, 0.0, &mut dd, &mut md)
             .unwrap();
         sparse
-            .correction(&jac, &model.inv_mass, r, &mut ds, &mut ms)
+            .correction(&jac, &model.inv_mass, r, 0.0, &mut ds, &mut ms)
             .unwrap();
         let ex = max_diff(&dd, &ds) / max_abs(&dd);
         let em = max_diff(&md, &ms) / max_abs(&md);

@@ -181,6 +181,7 @@ impl ConstraintSolver for DenseNullSpace {
         _jac: &Jacobian,
         inv_mass: &[f64],
         r: &[f64],
+        _residual_target: f64,
         dx: &mut [f64],
         mu: &mut [f64],
     ) -> Result<SolveReport, SolverError> {

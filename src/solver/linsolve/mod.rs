@@ -183,11 +183,15 @@ pub trait ConstraintSolver: Send {
         self.compliant_accelerations(jac, inv_mass, d, q, c, a, lambda)
     }
     /// dx = M^-1 A^T mu with mu = S^+ r (in the mode of the factorization).
+    /// An iterative backend may stop once max |r - A dx| over the rows it
+    /// solves is at most `residual_target` (a Newton correction whose
+    /// caller checks the result; 0: as accurate as the factorization allows).
     fn correction(
         &mut self,
         jac: &Jacobian,
         inv_mass: &[f64],
         r: &[f64],
+        residual_target: f64,
         dx: &mut [f64],
         mu: &mut [f64],
     ) -> Result<SolveReport, SolverError>;

@@ -89,6 +89,13 @@ const REJECT_DELTA: f64 = 1e24;
 const REFINE_TOL: f64 = 1e-15;
 /// Updates that no longer shrink and are below this (relative to g) are roundoff.
 const ROUNDOFF_FLOOR: f64 = 1e-12;
+/// A residual |rhs - S lambda| at most this (relative to |rhs|) on the rows the
+/// preconditioner solves is a backward-stable solution: the first step with an
+/// exact factorization leaves 1e-16..1.4e-15 (the oracle mast's fresh ones),
+/// and a further step only refines the forward error along the smallest
+/// singular directions, ~1e-13 of g (a step's constrained directions, which
+/// the projections remove).
+const BACKWARD_STABLE: f64 = 4e-15;
 const MAX_REFINE: usize = 40;
 /// CG steps longer than this are impossible for the preconditioned spectrum
 /// (s / (s + delta))^2 unless s < 1e-4 delta: roundoff along null(S).
@@ -689,6 +696,17 @@ impl SparseSchur {
         }
     }
 
+    /// max |residual| (`self.res`) over the rows the active slot's
+    /// preconditioner solves: the kept rows of a basic one (the rejected rows'
+    /// residual is the rhs's own inconsistency, which no step reduces), every
+    /// row of the regularized one.
+    fn solved_residual(&self, projected: bool) -> f64 {
+        match (&self.reduced, projected) {
+            (Some(pat), false) => pat.rows.iter().fold(0.0f64, |a, &i| a.max(self.res[i].abs())),
+            _ => self.res.iter().fold(0.0f64, |a, v| a.max(v.abs())),
+        }
+    }
+
     /// Preconditioned conjugate gradients on S lambda = rhs (rhs in `self.res`
     /// on entry), with S applied as A M^-1 A^T and the regularized factorization
     /// as the preconditioner: the preconditioned spectrum s / (s + delta) is 1 up
@@ -703,7 +721,13 @@ impl SparseSchur {
     /// to the least-squares, minimum-norm solution. With P = R^-1 such a
     /// component is amplified by 1 / delta and has to be detected (the true
     /// residual stays large) and the solve redone.
-    fn pcg(&mut self, jac: &Jacobian, inv_mass: &[f64], projected: bool) -> (f64, bool) {
+    fn pcg(
+        &mut self,
+        jac: &Jacobian,
+        inv_mass: &[f64],
+        projected: bool,
+        residual_target: f64,
+    ) -> (f64, bool) {
         self.rhs2.copy_from_slice(&self.res);
         let rmax = self.rhs2.iter().fold(0.0f64, |a, v| a.max(v.abs()));
         if rmax == 0.0 {
@@ -751,12 +775,14 @@ impl SparseSchur {
                 gmax = gmax.max(g.abs());
             }
             gprev = gmax;
-            // Stop when the update is negligible, when the error left after it,
-            // dmax rho / (1 - rho) with the observed contraction rho, is, or when
-            // the updates stagnate at the roundoff floor.
+            // Stop when the residual is a backward-stable solve's, when the
+            // update is negligible, when the error left after it, dmax rho /
+            // (1 - rho) with the observed contraction rho, is, or when the
+            // updates stagnate at the roundoff floor.
             let rho = dmax / dprev;
             dprev = dmax;
-            if dmax <= REFINE_TOL * gmax
+            if self.solved_residual(projected) <= (BACKWARD_STABLE * rmax).max(residual_target)
+                || dmax <= REFINE_TOL * gmax
                 || (it >= 2 && rho < 0.5 && dmax * rho / (1.0 - rho) <= REFINE_TOL * gmax)
                 || (it >= 2 && rho >= 0.5 && dmax <= ROUNDOFF_FLOOR * gmax)
             {
@@ -832,17 +858,18 @@ impl SparseSchur {
     /// Solves S lambda = rhs (rhs in `self.res`): g and lambda on return,
     /// lambda minimum-norm when the active slot is the regularized one. A
     /// refactorization it needs and cannot make is an error; what it did is
-    /// the report.
+    /// the report. CG may stop at `residual_target` (`correction`).
     fn solve(
         &mut self,
         jac: &Jacobian,
         inv_mass: &[f64],
         may_be_inconsistent: bool,
+        residual_target: f64,
     ) -> Result<SolveReport, SolverError> {
         self.rhs_keep.copy_from_slice(&self.res);
         let projected = self.slots[self.active].kind == SlotKind::Regularized;
         let mut report = SolveReport::default();
-        let (mut rel_res, mut converged) = self.pcg(jac, inv_mass, projected);
+        let (mut rel_res, mut converged) = self.pcg(jac, inv_mass, projected, residual_target);
         self.total_iterations = self.last_iterations;
         self.solves += 1;
         self.cg_iterations += self.last_iterations as u64;
@@ -872,7 +899,7 @@ impl SparseSchur {
             self.refactor(jac, inv_mass, self.active)?;
             report.refactored = true;
             self.res.copy_from_slice(&self.rhs_keep);
-            (rel_res, converged) = self.pcg(jac, inv_mass, projected);
+            (rel_res, converged) = self.pcg(jac, inv_mass, projected, residual_target);
             self.total_iterations += self.last_iterations;
         }
         if rel_res > tol && !projected && self.numeric_factorizations >= self.next_reprobe {
@@ -881,7 +908,7 @@ impl SparseSchur {
             report.reprobed = true;
             self.refactor(jac, inv_mass, self.active)?;
             self.res.copy_from_slice(&self.rhs_keep);
-            (rel_res, converged) = self.pcg(jac, inv_mass, projected);
+            (rel_res, converged) = self.pcg(jac, inv_mass, projected, residual_target);
             self.total_iterations += self.last_iterations;
         }
         let slot = &mut self.slots[self.active];
@@ -914,7 +941,7 @@ impl SparseSchur {
         self.total_iterations += self.last_iterations;
         self.g_keep.copy_from_slice(&self.g);
         jac.mul(&self.g_keep, &mut self.res);
-        let (_, lam_converged) = self.pcg(jac, inv_mass, true);
+        let (_, lam_converged) = self.pcg(jac, inv_mass, true, 0.0);
         self.total_iterations += self.last_iterations;
         std::mem::swap(&mut self.g, &mut self.g_keep);
         self.active = back_to;
@@ -1298,7 +1325,7 @@ impl ConstraintSolver for SparseSchur {
         if !self.unconstrained_part(jac, inv_mass, q, c, a) {
             return Ok(SolveReport::DIRECT);
         }
-        let report = self.solve(jac, inv_mass, false)?;
+        let report = self.solve(jac, inv_mass, false, 0.0)?;
         self.constrained_part(a, lambda);
         Ok(report)
     }
@@ -1424,6 +1451,7 @@ impl ConstraintSolver for SparseSchur {
         jac: &Jacobian,
         inv_mass: &[f64],
         r: &[f64],
+        residual_target: f64,
         dx: &mut [f64],
         mu: &mut [f64],
     ) -> Result<SolveReport, SolverError> {
@@ -1433,7 +1461,7 @@ impl ConstraintSolver for SparseSchur {
             return Ok(SolveReport::DIRECT);
         }
         self.res.copy_from_slice(&r[..jac.nrows]);
-        let report = self.solve(jac, inv_mass, true)?;
+        let report = self.solve(jac, inv_mass, true, residual_target)?;
         dx.copy_from_slice(&self.g[..dx.len()]);
         let k = mu.len().min(self.lam.len());
         mu[..k].copy_from_slice(&self.lam[..k]);

@@ -306,12 +306,14 @@ impl Core {
     }
 
     /// The mass-orthogonal correction dX = M^-1 A^T S^+ r of r in `r`
-    /// (multipliers into `mu`), with the current factorization.
-    pub fn correction(&mut self, model: &Model) -> Result<(), SolverError> {
+    /// (multipliers into `mu`), with the current factorization, solved until
+    /// max |r - A dX| is at most `residual_target`.
+    pub fn correction(&mut self, model: &Model, residual_target: f64) -> Result<(), SolverError> {
         let report = self.solver.correction(
             &self.jac,
             &model.inv_mass,
             &self.r,
+            residual_target,
             &mut self.dx,
             &mut self.mu,
         )?;

@@ -47,7 +47,7 @@ impl Core {
             }
             last = self.violation_m;
             self.factor(model, mode, Pose::PLAIN)?;
-            self.subtract_correction(model, false)?;
+            self.subtract_correction(model, false, st.projection_solve_fraction * tol)?;
         }
         if self.violation_m <= st.projection_accept_factor * tol {
             return Ok(());
@@ -74,7 +74,9 @@ impl Core {
         mode: SolveMode,
     ) -> Result<(), SolverError> {
         self.jac.mul(&self.v, &mut self.r);
-        self.subtract_correction(model, true)?;
+        let amax = self.jac.values.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let vmax = self.v.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        self.subtract_correction(model, true, st.velocity_solve_rel * amax * vmax)?;
         // (`c` is scratch until the accelerations that follow recompute it.)
         let Some(kept) = self.solver.kept_rows() else {
             return Ok(());
@@ -86,7 +88,6 @@ impl Core {
         let all = self.c.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         let on_kept = kept.iter().fold(0.0f64, |m, &i| m.max(self.c[i].abs()));
         let vmax = self.v.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-        let amax = self.jac.values.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         if all <= (st.velocity_redo_ratio * on_kept).max(st.velocity_redo_floor_rel * amax * vmax)
             || !self.solver.distinguishes_modes()
         {
@@ -97,12 +98,18 @@ impl Core {
             *v += d;
         }
         self.factor(model, SolveMode::MinNorm, Pose::PLAIN)?;
-        self.subtract_correction(model, true)
+        self.subtract_correction(model, true, 0.0)
     }
 
-    /// Subtracts dX = M^-1 A^T S^+ r of `r` (multipliers into `mu`) from velocities or positions.
-    fn subtract_correction(&mut self, model: &Model, velocities: bool) -> Result<(), SolverError> {
-        self.correction(model)?;
+    /// Subtracts dX = M^-1 A^T S^+ r of `r` (multipliers into `mu`) from velocities or
+    /// positions, solved to `residual_target` (`Core::correction`).
+    fn subtract_correction(
+        &mut self,
+        model: &Model,
+        velocities: bool,
+        residual_target: f64,
+    ) -> Result<(), SolverError> {
+        self.correction(model, residual_target)?;
         let target = if velocities { &mut self.v } else { &mut self.x };
         for (t, d) in target.iter_mut().zip(&self.dx) {
             *t -= d;
