@@ -263,9 +263,11 @@ impl LeastWork {
                 }
                 let g =
                     nalgebra::DMatrix::from_fn(m, k, |i, c| self.weight[i] * self.basis[(i, c)]);
-                let h = nalgebra::DVector::from_fn(m, |i, _| self.weight[i] * self.lambda_p[i]);
+                let mut h = nalgebra::DVector::from_fn(m, |i, _| self.weight[i] * self.lambda_p[i]);
                 let qr = g.qr();
-                let b = qr.q().transpose() * h;
+                // (Q^T h by the Householder reflections: Q itself is m x k)
+                qr.q_tr_mul(&mut h);
+                let b = h.rows(0, k.min(m)).into_owned();
                 let Some(s) = qr.r().solve_upper_triangular(&b) else {
                     return Ok(false);
                 };
