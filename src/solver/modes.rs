@@ -184,6 +184,9 @@ pub struct Modes {
     /// modes asked for).
     pub mechanisms: usize,
     pub unstable: usize,
+    /// The first elastic mode's frequency (Hz) among all the degrees of
+    /// freedom, whether or not it is among the modes asked for.
+    pub first_elastic_hz: Option<f64>,
     /// The lowest modes asked for, in increasing omega^2.
     pub modes: Vec<Mode>,
 }
@@ -316,7 +319,7 @@ pub fn natural_modes(
     let f_norm = f.iter().map(|v| v * v).sum::<f64>().sqrt();
     let mut preload_residual_rel = 0.0;
     if f_norm > 0.0 && jac.nrows > 0 {
-        LeastWork::new(SolverKind::Dense)
+        LeastWork::new(SolverKind::Sparse)
             .multipliers(model, &jac, f, &mut lambda)
             .map_err(ModesError::Solver)?;
         let mut atl = vec![0.0; n];
@@ -466,6 +469,10 @@ pub fn natural_modes(
         .iter()
         .filter(|w| kind_of(**w) == ModeKind::Unstable)
         .count();
+    let first_elastic_hz = omega2
+        .iter()
+        .find(|w| kind_of(**w) == ModeKind::Elastic)
+        .map(|w| frequency_hz(*w));
     let fields = rigid_body_fields(model, x);
     let mut modes = Vec::new();
     for m in 0..count.min(dof) {
@@ -488,6 +495,7 @@ pub fn natural_modes(
         preload_residual_rel,
         mechanisms,
         unstable,
+        first_elastic_hz,
         modes,
     })
 }
@@ -502,19 +510,14 @@ pub fn deployed_first_frequency_hz(model: &Model) -> Option<f64> {
     if model.n_coords() > model.solver.rank_check_max_coords {
         return None;
     }
-    let lin = Linearization::deployed(model);
-    let first = natural_modes(model, &lin, 1).ok()?;
-    let skip = first.mechanisms + first.unstable;
-    let modes = if skip == 0 {
-        first
-    } else {
-        natural_modes(model, &lin, skip + 1).ok()?
-    };
-    modes
-        .modes
-        .iter()
-        .find(|m| m.kind == ModeKind::Elastic)
-        .map(|m| m.frequency_hz)
+    natural_modes(model, &Linearization::deployed(model), 0)
+        .ok()?
+        .first_elastic_hz
+}
+
+/// f = sqrt(|omega^2|) / (2 pi).
+fn frequency_hz(omega2: f64) -> f64 {
+    omega2.abs().sqrt() / (2.0 * std::f64::consts::PI)
 }
 
 /// The six rigid-body velocity fields (translations x, y, z; rotations about
@@ -607,7 +610,7 @@ fn describe(
         .collect();
     Mode {
         omega2_rad2_s2: omega2,
-        frequency_hz: omega2.abs().sqrt() / (2.0 * std::f64::consts::PI),
+        frequency_hz: frequency_hz(omega2),
         kind,
         participation,
         motion,
