@@ -235,9 +235,14 @@ impl LeastWork {
                     *d *= im;
                 }
                 jac.mul(&self.force, &mut self.r);
-                let report =
-                    self.solver
-                        .correction(jac, inv_mass, &self.r, 0.0, &mut self.dx, &mut self.mu)?;
+                let report = self.solver.correction(
+                    jac,
+                    inv_mass,
+                    &self.r,
+                    0.0,
+                    &mut self.dx,
+                    &mut self.mu,
+                )?;
                 if !report.converged || report.least_squares {
                     return Ok(false);
                 }

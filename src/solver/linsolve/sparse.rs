@@ -702,7 +702,10 @@ impl SparseSchur {
     /// row of the regularized one.
     fn solved_residual(&self, projected: bool) -> f64 {
         match (&self.reduced, projected) {
-            (Some(pat), false) => pat.rows.iter().fold(0.0f64, |a, &i| a.max(self.res[i].abs())),
+            (Some(pat), false) => pat
+                .rows
+                .iter()
+                .fold(0.0f64, |a, &i| a.max(self.res[i].abs())),
             _ => self.res.iter().fold(0.0f64, |a, v| a.max(v.abs())),
         }
     }
