@@ -589,6 +589,15 @@ fn print_summary(s: &SimulateJson) {
             p.linear_scale_n_s,
             p.angular_scale_n_m_s
         );
+        if p.held {
+            say!(
+                "                 held by the step: {} corrections took out {:.2e} (linear), {:.2e} (angular) of the scales, kinetic energy {:.2e} J",
+                p.corrections,
+                p.linear_removed_rel,
+                p.angular_removed_rel,
+                p.kinetic_change_j
+            );
+        }
     }
     if let Some(f) = s.first_frequency_hz {
         say!("first frequency  {f:.6e} Hz (deployed, latched: analyze --modes)");

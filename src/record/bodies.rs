@@ -13,7 +13,8 @@
 //!   leave both unchanged; supports and joint damping (on absolute
 //!   velocities) do not. The drift is the largest |P - P_0| (|L - L_0|) over
 //!   the run relative to the largest sum m |v| (sum m |x - c_0| |v|), the
-//!   size of the momenta that cancel in the sum.
+//!   size of the momenta that cancel in the sum. A free-floating model's
+//!   step holds both (stage `momentum`); what it took out is reported too.
 
 use super::{RecordError, Recorder};
 use crate::run::Stop;
@@ -47,6 +48,16 @@ pub struct MomentumSummary {
     /// The scales: largest sum m |v| (N s) and sum m |x - c_0| |v| (N m s).
     pub linear_scale_n_s: f64,
     pub angular_scale_n_m_s: f64,
+    /// Whether the step held both momenta (a free-floating model with
+    /// `momentum_projection`: docs/solver.md, Momentum), in how many
+    /// sub-steps it corrected them, the sums of those corrections' sizes
+    /// relative to the scales (the integrator's own drift, taken out), and
+    /// the kinetic energy they changed in all (J).
+    pub held: bool,
+    pub corrections: u64,
+    pub linear_removed_rel: f64,
+    pub angular_removed_rel: f64,
+    pub kinetic_change_j: f64,
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -149,6 +160,8 @@ pub struct BodyRecorder {
     l_scale: f64,
     p_last: Vector3<f64>,
     l_last: Vector3<f64>,
+    /// The state's held momenta at the last sample.
+    held: Option<crate::solver::state::HeldMomentum>,
 }
 
 fn joint(x: &[f64], j: usize) -> Vector3<f64> {
@@ -173,6 +186,7 @@ impl BodyRecorder {
             l_scale: 0.0,
             p_last: Vector3::zeros(),
             l_last: Vector3::zeros(),
+            held: None,
         };
         r.sample(sim);
         r
@@ -193,6 +207,7 @@ impl BodyRecorder {
         self.p_drift = self.p_drift.max((p - self.p0).norm());
         self.l_drift = self.l_drift.max((l - self.l0).norm());
         (self.p_last, self.l_last) = (p, l);
+        self.held = s.momentum;
         for (k, b) in now.bodies.into_iter().enumerate() {
             if b.0 > self.peak[k].0 {
                 self.peak[k] = (b.0, s.t_s);
@@ -239,6 +254,17 @@ impl BodyRecorder {
             angular_drift_rel: rel(self.l_drift, self.l_scale),
             linear_scale_n_s: self.p_scale,
             angular_scale_n_m_s: self.l_scale,
+            held: self.held.is_some(),
+            corrections: self.held.map_or(0, |h| h.corrections),
+            linear_removed_rel: rel(
+                self.held.map_or(0.0, |h| h.linear_removed_n_s),
+                self.p_scale,
+            ),
+            angular_removed_rel: rel(
+                self.held.map_or(0.0, |h| h.angular_removed_n_m_s),
+                self.l_scale,
+            ),
+            kinetic_change_j: self.held.map_or(0.0, |h| h.kinetic_change_j),
         }
     }
 }

@@ -284,6 +284,17 @@ pub struct SolverSettings {
     /// (|A^T lambda - f| / |f|); beyond it the state is not an equilibrium
     /// of the locked truss and no modes are given.
     pub modes_equilibrium_rel: f64,
+    // --- momentum of a free-floating model (stage `momentum`) ---
+    /// A free-floating model (no support, gravity or joint damping: its
+    /// linear and angular momentum are constant) has its velocities given
+    /// the least change, a rigid motion, that restores both after every
+    /// accepted sub-step (docs/solver.md, Momentum); false leaves the
+    /// angular momentum to the integrator's truncation.
+    pub momentum_projection: bool,
+    /// A model is free-floating where no constraint row, every lock's
+    /// included, moves under a rigid motion by more than this fraction of
+    /// max|A| max|motion| at the initial positions.
+    pub momentum_free_rel: f64,
 }
 
 impl Default for SolverSettings {
@@ -346,6 +357,8 @@ impl Default for SolverSettings {
             least_work_feasible_rel: 1e-10,
             modes_mechanism_rel: 1e-10,
             modes_equilibrium_rel: 1e-8,
+            momentum_projection: true,
+            momentum_free_rel: 1e-9,
         }
     }
 }
@@ -418,6 +431,7 @@ impl SolverSettings {
             ("least_work_feasible_rel", self.least_work_feasible_rel),
             ("modes_mechanism_rel", self.modes_mechanism_rel),
             ("modes_equilibrium_rel", self.modes_equilibrium_rel),
+            ("momentum_free_rel", self.momentum_free_rel),
         ];
         let bad = |key, value, rule| Err(SettingsError { key, value, rule });
         for (key, v) in positive {
@@ -457,6 +471,7 @@ impl SolverSettings {
             ("least_work_feasible_rel", self.least_work_feasible_rel),
             ("modes_mechanism_rel", self.modes_mechanism_rel),
             ("modes_equilibrium_rel", self.modes_equilibrium_rel),
+            ("momentum_free_rel", self.momentum_free_rel),
         ] {
             if v >= 1.0 {
                 return bad(key, v, SettingsRule::BelowOne);

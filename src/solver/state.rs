@@ -224,6 +224,12 @@ pub struct State {
     pub deploy_time_s: Option<f64>,
     /// Steps taken. `step`.
     pub steps: u64,
+    /// A free-floating model's momenta at the start, held by the stage
+    /// `momentum`, and what that stage removed; None where the model is not
+    /// free-floating or `momentum_projection` is off. `Simulator::initialize`
+    /// (the start), `momentum::hold` (each accepted sub-step).
+    #[serde(default)]
+    pub momentum: Option<HeldMomentum>,
     /// What the integrator carries from a sub-step to the next.
     pub carry: Carry,
 }
@@ -272,6 +278,27 @@ pub struct WaitingLatch {
     pub reached_s: f64,
     /// The sign of its gap before it reached its lock (0 if unknown).
     pub side: f64,
+}
+
+/// A free-floating model's total momenta as held (`State::momentum`): the
+/// start's, and the corrections made to keep them.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct HeldMomentum {
+    /// P = sum m v (N s) and L = sum m (x - c) x v about the centre of mass
+    /// c (N m s), at the start.
+    pub linear_n_s: [f64; 3],
+    pub angular_n_m_s: [f64; 3],
+    /// Sub-steps corrected, and the sums and largest of the corrections'
+    /// sizes |P_0 - P| (N s) and |L_0 - L| (N m s): the integrator's own
+    /// drift, which the correction takes out.
+    pub corrections: u64,
+    pub linear_removed_n_s: f64,
+    pub angular_removed_n_m_s: f64,
+    pub largest_angular_n_m_s: f64,
+    /// The kinetic energy the corrections changed in all (J): second order
+    /// in their size, -1/2 (|dP|^2 / M + dL^T I^-1 dL) from a state at
+    /// its start's momenta.
+    pub kinetic_change_j: f64,
 }
 
 /// A trial sub-step that made energy and was halved (`Carry::made_energy_halved`).
@@ -355,6 +382,7 @@ impl State {
             deployed: false,
             deploy_time_s: None,
             steps: 0,
+            momentum: None,
             carry: Carry {
                 accel_history: AccelHistory::new(n),
                 blend_start: model

@@ -10,6 +10,7 @@ mod elastic_members;
 mod elements_oracles;
 mod latch_loads;
 mod modes;
+mod momentum;
 mod sail_array;
 mod snapshot;
 mod solver_settings;

@@ -10,6 +10,7 @@
 //!                events::locate_latch (root of the step map) ── ledger::accept
 //!                impact::latch (velocity jump, impulses, mobility)
 //!                motor::motors_after_substep (release, engage)
+//!                momentum::hold (a free-floating model's P and L)
 //! ```
 //!
 //! Compliant elements and latches (`crate::solver::springs`) add their forces
@@ -23,6 +24,7 @@ mod events;
 mod impact;
 mod integrator;
 mod ledger;
+mod momentum;
 mod motor;
 mod newton;
 mod projection;

@@ -89,6 +89,9 @@ impl Simulator {
         core.a_guess.fill(0.0);
         core.consistent_accelerations(model, &state.cable_tension_cmd_n, st, &mut state.carry)?;
         core.commit_trial(&mut state); // (v = 0, as the state's)
+        if st.momentum_projection && super::momentum::free_floating(model) {
+            state.momentum = Some(super::momentum::at_start(model, &state.x, &state.v));
+        }
         self.state = state;
         self.state.mechanisms = self.mechanisms_now();
         self.state.deployed = !self.model.locks.is_empty() && self.all_locked();

@@ -8,6 +8,7 @@
 //!       gates   blend entry, contact cut, ledger         verdict: sound, or Retry
 //!       finish  events, ledger::accept, impact           verdict: done, or Retry
 //!       motors  release / engage                         (the next sub-step no longer)
+//!       momentum  a free-floating model's P and L held     (momentum::hold)
 //!       Retry   book_retry(why): the one place a retry is decided and counted
 //! ```
 //!
@@ -119,6 +120,7 @@ impl Simulator {
             };
             match verdict {
                 Ok((budget_used, motors_changed)) => {
+                    self.hold_momentum();
                     asked_rule = StepRule::AverageAcceleration;
                     h_try = h_cap;
                     if motors_changed {
@@ -137,6 +139,15 @@ impl Simulator {
         self.state.steps += 1;
         self.core.stats.steps += 1;
         Ok(self.state.locks.len() - locks_before)
+    }
+
+    /// Stage `momentum`: a free-floating model's P and L restored after an
+    /// accepted sub-step (`momentum::hold`).
+    fn hold_momentum(&mut self) {
+        let s = &mut self.state;
+        if let Some(held) = &mut s.momentum {
+            super::momentum::hold(&self.model, &s.x, &mut s.v, held);
+        }
     }
 
     /// Counts a retry (the one place a retry is booked).
