@@ -871,6 +871,11 @@ impl SparseSchur {
     ) -> Result<SolveReport, SolverError> {
         self.rhs_keep.copy_from_slice(&self.res);
         let projected = self.slots[self.active].kind == SlotKind::Regularized;
+        // (a minimum-norm solve goes to its residual floor whatever the
+        // caller's target: stopped short, its residual relative to a small
+        // rhs, a latch's correction of a |Phi| near the tolerance, reads as an
+        // inconsistent rhs, whose least-squares route then need not converge)
+        let residual_target = if projected { 0.0 } else { residual_target };
         let mut report = SolveReport::default();
         let (mut rel_res, mut converged) = self.pcg(jac, inv_mass, projected, residual_target);
         self.total_iterations = self.last_iterations;
