@@ -104,6 +104,19 @@ fn an_elastic_ring_restored_after_a_command_goes_on_to_the_bit() {
 }
 
 #[test]
+fn a_ring_on_a_free_bus_restored_goes_on_holding_its_momenta_to_the_bit() {
+    // (the held momenta and the corrections' books are part of the state;
+    // saved as the first bays swing out, before the latches)
+    let ring = || bundled("ring_on_bus.toml");
+    let snap = continues_to_the_bit(&ring, &none, 0.05, 20, 20);
+    let held = snap
+        .state
+        .momentum
+        .expect("a free-floating model's momenta are held");
+    assert!(held.corrections > 0, "{held:?}");
+}
+
+#[test]
 fn a_speed_controlled_mast_restored_goes_on_to_the_bit() {
     let text = generate::mast(&MastParams::default()).unwrap().to_toml();
     let model = || parse(&text, "mast.toml").unwrap().model;
