@@ -121,9 +121,10 @@ impl Simulator {
         } else {
             0.0
         };
+        let latch_j = transients_took_j(m, s, (&c.x, &c.v));
         TrialEnergy {
             residual_j: d_kinetic_j
-                - (work_j - damping_j - elastic_j - damper_j + member_j + integrator_j),
+                - (work_j - damping_j - elastic_j - damper_j + member_j + integrator_j - latch_j),
             flow_j: d_kinetic_j.abs()
                 + integrator_j.abs()
                 + work_j.abs()
@@ -131,11 +132,29 @@ impl Simulator {
                 + elastic_j.abs()
                 + damper_j.abs()
                 + member_j.abs()
+                + latch_j.abs()
                 + scratch.friction_loss_j.abs(),
             kinetic_before_j,
             kinetic_trial_j,
         }
     }
+}
+
+/// What the compliant latches' transients took over the move from the state to
+/// (x, v), J, as `accept` books it: damper c 1/2 (ldot_0 + ldot_1) dl and the
+/// spring's gain 1/2 k (g_1^2 - g_0^2).
+fn transients_took_j(m: &Model, s: &State, (x, v): (&[f64], &[f64])) -> f64 {
+    s.transients
+        .iter()
+        .filter_map(|tr| {
+            let elem = &m.elements[tr.element];
+            let (l0, r0) = elem.extension(&s.x, &s.v)?;
+            let (l1, r1) = elem.extension(x, v)?;
+            let (g0, g1) = (elem.lock_gap(&s.x)?, elem.lock_gap(x)?);
+            let (k, cd) = (tr.stiffness_n_per_m, tr.damping_n_s_per_m);
+            Some(cd * 0.5 * (r0 + r1) * (l1 - l0) + 0.5 * k * (g1 * g1 - g0 * g0))
+        })
+        .sum()
 }
 
 /// The kinetic energy (J) a backward-Euler trial step (`Core::backward_euler`; dV = h A_new,
