@@ -61,20 +61,14 @@ impl Simulator {
         // exact; per latch, its force impulse (trapezoid of T) and dissipation.
         e.latch_spring_energy_j = 0.0;
         for tr in &mut s.transients {
-            let elem = &m.elements[tr.element];
-            let (Some((l0, r0)), Some((l1, r1)), Some(g1)) = (
-                elem.extension(&s.x, &s.v),
-                elem.extension(&c.x, &c.v),
-                elem.lock_gap(&c.x),
-            ) else {
+            let Some(mv) = transient_move(m, tr, (&s.x, &s.v), (&c.x, &c.v)) else {
                 continue;
             };
             let (k, cd) = (tr.stiffness_n_per_m, tr.damping_n_s_per_m);
-            let dissipated = cd * 0.5 * (r0 + r1) * (l1 - l0);
-            e.latch_damping_loss_j += dissipated;
-            tr.dissipated_j += dissipated;
-            tr.impulse_ns += 0.5 * h * (tr.force_n + k * g1 + cd * r1);
-            e.latch_spring_energy_j += 0.5 * k * g1 * g1;
+            e.latch_damping_loss_j += mv.dissipated_j;
+            tr.dissipated_j += mv.dissipated_j;
+            tr.impulse_ns += 0.5 * h * (tr.force_n + k * mv.gap_m.1 + cd * mv.rate_m_s);
+            e.latch_spring_energy_j += 0.5 * k * mv.gap_m.1 * mv.gap_m.1;
         }
         // Tracking motors: the length they hold moves on with the sub-step.
         for (mo, speed) in s.motors.iter_mut().zip(&c.motor.speed_m_s) {
@@ -147,14 +141,35 @@ fn transients_took_j(m: &Model, s: &State, (x, v): (&[f64], &[f64])) -> f64 {
     s.transients
         .iter()
         .filter_map(|tr| {
-            let elem = &m.elements[tr.element];
-            let (l0, r0) = elem.extension(&s.x, &s.v)?;
-            let (l1, r1) = elem.extension(x, v)?;
-            let (g0, g1) = (elem.lock_gap(&s.x)?, elem.lock_gap(x)?);
-            let (k, cd) = (tr.stiffness_n_per_m, tr.damping_n_s_per_m);
-            Some(cd * 0.5 * (r0 + r1) * (l1 - l0) + 0.5 * k * (g1 * g1 - g0 * g0))
+            let mv = transient_move(m, tr, (&s.x, &s.v), (x, v))?;
+            let (g0, g1) = mv.gap_m;
+            Some(mv.dissipated_j + 0.5 * tr.stiffness_n_per_m * (g1 * g1 - g0 * g0))
         })
         .sum()
+}
+
+/// A compliant latch over a move from (x0, v0) to (x1, v1).
+struct TransientMove {
+    /// Its damper's work by the trapezoid, c 1/2 (ldot_0 + ldot_1) dl (J).
+    dissipated_j: f64,
+    /// Its gap before and after (m), and its rate after (m/s).
+    gap_m: (f64, f64),
+    rate_m_s: f64,
+}
+
+fn transient_move(
+    m: &Model,
+    tr: &crate::solver::state::LatchTransient,
+    (x0, v0): (&[f64], &[f64]),
+    (x1, v1): (&[f64], &[f64]),
+) -> Option<TransientMove> {
+    let elem = &m.elements[tr.element];
+    let ((l0, r0), (l1, r1)) = (elem.extension(x0, v0)?, elem.extension(x1, v1)?);
+    Some(TransientMove {
+        dissipated_j: tr.damping_n_s_per_m * 0.5 * (r0 + r1) * (l1 - l0),
+        gap_m: (elem.lock_gap(x0)?, elem.lock_gap(x1)?),
+        rate_m_s: r1,
+    })
 }
 
 /// The kinetic energy (J) a backward-Euler trial step (`Core::backward_euler`; dV = h A_new,

@@ -29,9 +29,9 @@ use nalgebra::{Matrix3, Vector3};
 
 /// Whether `model` is free-floating: no gravity, no joint damping, and no
 /// constraint row (every lock's included) moved by any of the six rigid
-/// motions at the initial positions beyond `momentum_free_rel` of
-/// max|A| max|motion|.
-pub(super) fn free_floating(model: &Model) -> bool {
+/// motions at the initial positions beyond `free_rel` (`momentum_free_rel`)
+/// of max|A| max|motion|.
+pub(super) fn free_floating(model: &Model, free_rel: f64) -> bool {
     if model.gravity_m_s2.iter().any(|g| *g != 0.0) || model.damping_n_s_per_m != 0.0 {
         return false;
     }
@@ -53,7 +53,7 @@ pub(super) fn free_floating(model: &Model) -> bool {
         let wmax = motion.iter().fold(0.0f64, |m, v| m.max(v.abs()));
         jac.mul(&motion, &mut rows);
         let moved = rows.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-        if moved > model.solver.momentum_free_rel * amax * wmax {
+        if moved > free_rel * amax * wmax {
             return false;
         }
     }

@@ -89,7 +89,7 @@ impl Simulator {
         core.a_guess.fill(0.0);
         core.consistent_accelerations(model, &state.cable_tension_cmd_n, st, &mut state.carry)?;
         core.commit_trial(&mut state); // (v = 0, as the state's)
-        if st.momentum_projection && super::momentum::free_floating(model) {
+        if st.momentum_projection && super::momentum::free_floating(model, st.momentum_free_rel) {
             state.momentum = Some(super::momentum::at_start(model, &state.x, &state.v));
         }
         self.state = state;

@@ -313,8 +313,9 @@ impl Simulator {
 
     /// The ledger's gate on the trial sub-step of length h (stage `ledger`),
     /// from its residual r, the change of kinetic energy less the work booked
-    /// over it (not in compliant latches' transients: the run's balance
-    /// covers them):
+    /// over it (compliant latches' transients included; with rigid members
+    /// not gated under a transient, whose velocity projections the ledger
+    /// does not book: the run's balance covers them):
     /// - made energy: |r| beyond `substep_energy_rel` of the energy that
     ///   flowed and `substep_energy_floor_rel` of the run's scale
     ///   (`Energy::scale_j`). Halved down to `made_energy_min_substep_fraction`
@@ -323,11 +324,10 @@ impl Simulator {
     /// - over budget: |r| > b h E, b = `ledger_budget_rel_per_s`, E the
     ///   largest of the run's scale, the trial's kinetic energy and the drive's
     ///   work to the reference geometry: the trapezoid's O(h^3) error. Halved
-    ///   down to `min_substep_fraction`; there accepted.
+    ///   down to `min_substep_fraction`; there sound if |r| is within
+    ///   `substep_energy_floor_rel` of the run's scale, else accepted.
     /// - else sound, with the fraction |r| / (b h E) of the budget it used.
     pub(super) fn trial_ledger(&mut self, h: f64, rule: StepRule, dt: f64) -> LedgerVerdict {
-        // (rigid members: a transient's trials are outside the ledger, whose
-        // velocity projections it does not book; the run's balance covers them)
         if !self.state.transients.is_empty() && !self.settings.elastic_members {
             return LedgerVerdict::Sound { budget_used: 0.0 };
         }
