@@ -142,8 +142,9 @@ struct Slot {
     /// D^-1/2 (1 / sqrt(S_ii), 0 for an empty row) for a Rejecting slot.
     scale: Vec<f64>,
     inv_mass: Vec<f64>,
-    /// The Jacobian values it was made at (basic slots).
+    /// The Jacobian values it was made at (basic slots), and their max |.|.
     jac_values: Vec<f64>,
+    jac_max: f64,
     valid: bool,
     age: usize,
     /// Most CG iterations a solve needed with this factorization.
@@ -272,6 +273,8 @@ struct CompliantSlot {
     d: Vec<f64>,
     inv_mass: Vec<f64>,
     jac_values: Vec<f64>,
+    /// max |jac_values|
+    jac_max: f64,
     valid: bool,
     worst_iterations: usize,
 }
@@ -444,6 +447,7 @@ impl SparseSchur {
         cs.inv_mass.extend_from_slice(inv_mass);
         cs.jac_values.clear();
         cs.jac_values.extend_from_slice(&jac.values);
+        cs.jac_max = max_abs(&jac.values);
         cs.valid = true;
         cs.worst_iterations = 0;
         self.numeric_factorizations += 1;
@@ -468,10 +472,7 @@ impl SparseSchur {
     ) -> Result<(bool, SolveReport), SolverError> {
         let cs = &self.compliant;
         let same = cs.valid && cs.d == d && cs.inv_mass == inv_mass;
-        let young = || {
-            let (dmax, amax) = max_abs_diff(&jac.values, &cs.jac_values);
-            dmax <= COMPLIANT_REUSE_TOL * amax
-        };
+        let young = || within_rel(&jac.values, &cs.jac_values, cs.jac_max, COMPLIANT_REUSE_TOL);
         debug_assert!(
             !(direction && same) || young(),
             "a Newton direction at a Jacobian the kept factorization was not made near"
@@ -658,6 +659,7 @@ impl SparseSchur {
         slot.inv_mass.extend_from_slice(inv_mass);
         slot.jac_values.clear();
         slot.jac_values.extend_from_slice(&jac.values);
+        slot.jac_max = max_abs(&jac.values);
         slot.valid = true;
         slot.age = 0;
         slot.worst_iterations = 0;
@@ -706,7 +708,7 @@ impl SparseSchur {
                 .rows
                 .iter()
                 .fold(0.0f64, |a, &i| a.max(self.res[i].abs())),
-            _ => self.res.iter().fold(0.0f64, |a, v| a.max(v.abs())),
+            _ => max_abs(&self.res),
         }
     }
 
@@ -732,7 +734,7 @@ impl SparseSchur {
         residual_target: f64,
     ) -> (f64, bool) {
         self.rhs2.copy_from_slice(&self.res);
-        let rmax = self.rhs2.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+        let rmax = max_abs(&self.rhs2);
         if rmax == 0.0 {
             self.lam.fill(0.0);
             self.g.fill(0.0);
@@ -756,7 +758,7 @@ impl SparseSchur {
             jac.mul(&self.dg, &mut self.q);
             let pq = dot(&self.p, &self.q);
             let alpha = rz / pq;
-            let dmax = alpha * self.dg.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+            let dmax = alpha * max_abs(&self.dg);
             // Safeguards: a non-positive curvature, or a step far beyond what the
             // preconditioned spectrum allows or far larger than the solution
             // itself, come from roundoff along null(S) (a slightly inconsistent
@@ -772,11 +774,10 @@ impl SparseSchur {
                 self.lam[i] += alpha * self.p[i];
                 self.res[i] -= alpha * self.q[i];
             }
-            let mut gmax = 0.0f64;
             for (g, h) in self.g.iter_mut().zip(&self.dg) {
                 *g += alpha * h;
-                gmax = gmax.max(g.abs());
             }
+            let gmax = max_abs(&self.g);
             gprev = gmax;
             // Stop when the residual is a backward-stable solve's, when the
             // update is negligible, when the error left after it, dmax rho /
@@ -814,10 +815,7 @@ impl SparseSchur {
                 *r = b - *r;
             }
         }
-        (
-            self.res.iter().fold(0.0f64, |a, v| a.max(v.abs())) / rmax,
-            !at_limit,
-        )
+        (max_abs(&self.res) / rmax, !at_limit)
     }
 
     /// Projected iterated regularization (Richardson with P = R^-1 S R^-1) on
@@ -978,26 +976,60 @@ fn all_finite(x: &[f64]) -> bool {
     acc.iter().chain(tail).all(|v| (v * 0.0) == 0.0)
 }
 
-/// (max |a - b|, max |a|) over equal-length slices.
-fn max_abs_diff(a: &[f64], b: &[f64]) -> (f64, f64) {
-    let (mut d, mut m) = ([0.0f64; LANES], [0.0f64; LANES]);
+/// Whether `a` is within `tol` of `b` relative to its largest entry:
+/// max |a - b| <= tol max |a| (equal-length slices). With `b_max` = max |b|
+/// and d = max |a - b|, max |a| lies in [b_max - d, b_max + d], which
+/// decides it from d alone but where d sits at the bound: chunk by chunk,
+/// a partial d with d (1 - tol) > tol b_max is already a move beyond it (a
+/// configuration one step on moves its first entries already), and a whole
+/// d with d (1 + tol) <= tol b_max is within it.
+fn within_rel(a: &[f64], b: &[f64], b_max: f64, tol: f64) -> bool {
+    const CHUNK: usize = 8 * LANES;
+    let mut d = [0.0f64; LANES];
     let n = a.len().min(b.len()) / LANES * LANES;
-    // (compare-and-select, not f64::max, whose NaN rule keeps the loop
-    // from vectorizing: the same maxima for the finite values compared here)
-    for (ca, cb) in a[..n].chunks_exact(LANES).zip(b[..n].chunks_exact(LANES)) {
-        for k in 0..LANES {
-            let (dk, mk) = ((ca[k] - cb[k]).abs(), ca[k].abs());
-            d[k] = if dk > d[k] { dk } else { d[k] };
-            m[k] = if mk > m[k] { mk } else { m[k] };
+    // (margins of 1e-12 keep the settled cases clear of their bounds'
+    // rounding)
+    let beyond = tol * b_max / (1.0 - tol) * (1.0 + 1e-12);
+    for (ba, bb) in a[..n].chunks(CHUNK).zip(b[..n].chunks(CHUNK)) {
+        for (ca, cb) in ba.chunks_exact(LANES).zip(bb.chunks_exact(LANES)) {
+            let (ca, cb): (&[f64; LANES], &[f64; LANES]) = (
+                ca.try_into().expect("a lane group"),
+                cb.try_into().expect("a lane group"),
+            );
+            // (compare-and-select, not f64::max, whose NaN rule keeps the
+            // loop from vectorizing: the same maxima for finite values)
+            for k in 0..LANES {
+                let dk = (ca[k] - cb[k]).abs();
+                d[k] = if dk > d[k] { dk } else { d[k] };
+            }
+        }
+        if d.iter().any(|&v| v > beyond) {
+            return false;
         }
     }
     let mut dmax = d.iter().fold(0.0f64, |x, &y| x.max(y));
-    let mut amax = m.iter().fold(0.0f64, |x, &y| x.max(y));
     for (x, y) in a[n..].iter().zip(&b[n..]) {
         dmax = dmax.max((x - y).abs());
-        amax = amax.max(x.abs());
     }
-    (dmax, amax)
+    if dmax * (1.0 + tol) <= tol * b_max * (1.0 - 1e-12) {
+        return true;
+    }
+    dmax <= tol * max_abs(a)
+}
+
+/// max |a| (f64::max's fold, by lanes).
+fn max_abs(a: &[f64]) -> f64 {
+    let mut m = [0.0f64; LANES];
+    let chunks = a.chunks_exact(LANES);
+    let tail = chunks.remainder();
+    for c in chunks {
+        let c: &[f64; LANES] = c.try_into().expect("a lane group");
+        for k in 0..LANES {
+            let v = c[k].abs();
+            m[k] = if v > m[k] { v } else { m[k] };
+        }
+    }
+    m.iter().chain(tail).fold(0.0f64, |x, v| x.max(v.abs()))
 }
 
 /// Whether two inverse mass matrices differ by a scalar factor only (M and
@@ -1174,7 +1206,7 @@ impl Pattern {
                     a[0] * b[0] * w[0] + a[1] * b[1] * w[1] + a[2] * b[2] * w[2];
             }
         }
-        if self.s_vals.iter().any(|x| !x.is_finite()) {
+        if !all_finite(&self.s_vals) {
             return Err(SolverError::NonFiniteJacobian);
         }
         Ok(())
@@ -1265,8 +1297,7 @@ impl ConstraintSolver for SparseSchur {
             // A basic factorization is reused while A has moved little since.
             let near = match slot.kind {
                 SlotKind::Rejecting => {
-                    let (dmax, amax) = max_abs_diff(&jac.values, &slot.jac_values);
-                    dmax <= BASIC_REUSE_TOL * amax
+                    within_rel(&jac.values, &slot.jac_values, slot.jac_max, BASIC_REUSE_TOL)
                 }
                 SlotKind::Regularized => slot.age <= MAX_AGE,
             };
@@ -1568,5 +1599,54 @@ impl ConstraintSolver for SparseSchur {
             self.rank
                 .map_or("?".to_string(), |r| format!("{r} of {}", self.sig_rows))
         )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{max_abs, within_rel};
+
+    /// The chunked reuse test decides as the whole maxima do,
+    /// max |a - b| <= tol max |a|, on moves far beyond, far within and at
+    /// the bound (where it reads max |a| itself), in the first entry or
+    /// the last, on lengths that fill no lane group, a few or many.
+    #[test]
+    fn the_reuse_test_decides_as_the_full_maxima() {
+        let mut seed = 11u64;
+        let mut rnd = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let tol = 1e-6;
+        let mut decided = [0usize; 2];
+        for &n in &[1usize, 7, 8, 63, 64, 65, 500, 5007] {
+            for case in 0..60 {
+                let b: Vec<f64> = (0..n).map(|_| 4.0 * rnd() - 2.0).collect();
+                let mut a = b.clone();
+                // one entry moved by a multiple of tol max |b| from 1e-3 to
+                // 1e3, a few of them within a part in 1e6 of the bound
+                let at = [0, n / 2, n - 1][case % 3];
+                let f = if case % 5 == 0 {
+                    1.0 + (rnd() - 0.5) * 1e-6
+                } else {
+                    10f64.powf(6.0 * rnd() - 3.0)
+                };
+                let bmax = max_abs(&b);
+                a[at] += if rnd() < 0.5 { -1.0 } else { 1.0 } * f * tol * bmax;
+                let d = a
+                    .iter()
+                    .zip(&b)
+                    .fold(0.0f64, |m, (x, y)| m.max((x - y).abs()));
+                let full = d <= tol * a.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+                assert_eq!(within_rel(&a, &b, bmax, tol), full, "n {n} case {case}");
+                decided[full as usize] += 1;
+            }
+        }
+        // (both outcomes were met)
+        assert!(decided[0] > 50 && decided[1] > 50, "{decided:?}");
+        assert!(within_rel(&[], &[], 0.0, tol));
+        assert_eq!(max_abs(&[1.0, -3.0, f64::NAN, 2.0]), 3.0);
     }
 }
