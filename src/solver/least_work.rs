@@ -38,6 +38,7 @@ use super::jacobian::Jacobian;
 use super::linsolve::{ConstraintSolver, SolveMode, SolverKind};
 use super::model::Model;
 use super::SolverError;
+use faer::linalg::solvers::SolveLstsq;
 
 /// A backend instance of its own (the stepping solver's kept factorizations,
 /// counters and re-probe schedule are untouched, so the trajectory does not
@@ -266,16 +267,16 @@ impl LeastWork {
                     };
                     *w = rel.sqrt();
                 }
-                let g =
-                    nalgebra::DMatrix::from_fn(m, k, |i, c| self.weight[i] * self.basis[(i, c)]);
-                let mut h = nalgebra::DVector::from_fn(m, |i, _| self.weight[i] * self.lambda_p[i]);
+                // (faer's blocked Householder QR; Q^T h by its reflections)
+                let g = faer::Mat::<f64>::from_fn(m, k, |i, c| self.weight[i] * self.basis[(i, c)]);
                 let qr = g.qr();
-                // (Q^T h by the Householder reflections: Q itself is m x k)
-                qr.q_tr_mul(&mut h);
-                let b = h.rows(0, k.min(m)).into_owned();
-                let Some(s) = qr.r().solve_upper_triangular(&b) else {
+                let r = qr.thin_R();
+                if (0..k.min(m)).any(|i| r[(i, i)] == 0.0) || m < k {
                     return Ok(false);
-                };
+                }
+                let h = faer::Mat::<f64>::from_fn(m, 1, |i, _| self.weight[i] * self.lambda_p[i]);
+                let s = qr.solve_lstsq(&h);
+                let s = nalgebra::DVector::from_fn(k, |i, _| s[(i, 0)]);
                 let target: &mut [f64] = if slot == 0 { lambda_eps } else { lambda };
                 let split = &self.basis * s;
                 for ((l, p), ns) in target.iter_mut().zip(&self.lambda_p).zip(split.iter()) {
