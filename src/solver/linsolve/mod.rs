@@ -22,6 +22,24 @@ pub mod gmres;
 pub mod sparse;
 mod static_ldlt;
 
+/// max |a|: f64::max's fold, by eight independent lanes and
+/// compare-and-select so that it vectorizes (the same maximum; NaN is
+/// skipped as f64::max skips it).
+pub fn max_abs(a: &[f64]) -> f64 {
+    const LANES: usize = 8;
+    let mut m = [0.0f64; LANES];
+    let chunks = a.chunks_exact(LANES);
+    let tail = chunks.remainder();
+    for c in chunks {
+        let c: &[f64; LANES] = c.try_into().expect("a lane group");
+        for k in 0..LANES {
+            let v = c[k].abs();
+            m[k] = if v > m[k] { v } else { m[k] };
+        }
+    }
+    m.iter().chain(tail).fold(0.0f64, |x, v| x.max(v.abs()))
+}
+
 /// Which multipliers a factorization's solves return. For a consistent
 /// right-hand side the motion is the same; off the constraint manifold
 /// (Newmark iterates), where redundant rows are only nearly dependent, the two

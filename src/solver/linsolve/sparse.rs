@@ -75,6 +75,8 @@ use faer::sparse::linalg::SupernodalThreshold;
 use faer::sparse::SymbolicSparseColMatRef;
 use faer::Side;
 
+use super::max_abs;
+
 /// Regularization relative to the largest diagonal entry of S (minimum-norm solves).
 pub const REG_REL: f64 = 1e-10;
 /// A pivot of the unit-diagonal S~ below this marks a redundant row: the
@@ -1015,21 +1017,6 @@ fn within_rel(a: &[f64], b: &[f64], b_max: f64, tol: f64) -> bool {
         return true;
     }
     dmax <= tol * max_abs(a)
-}
-
-/// max |a| (f64::max's fold, by lanes).
-fn max_abs(a: &[f64]) -> f64 {
-    let mut m = [0.0f64; LANES];
-    let chunks = a.chunks_exact(LANES);
-    let tail = chunks.remainder();
-    for c in chunks {
-        let c: &[f64; LANES] = c.try_into().expect("a lane group");
-        for k in 0..LANES {
-            let v = c[k].abs();
-            m[k] = if v > m[k] { v } else { m[k] };
-        }
-    }
-    m.iter().chain(tail).fold(0.0f64, |x, v| x.max(v.abs()))
 }
 
 /// Whether two inverse mass matrices differ by a scalar factor only (M and

@@ -9,7 +9,7 @@
 
 use super::core::{Core, Pose, Rows, Solve, StepRule, MEMBER_PIN};
 use crate::solver::cable;
-use crate::solver::linsolve::SolveMode;
+use crate::solver::linsolve::{max_abs, SolveMode};
 use crate::solver::model::Model;
 use crate::solver::settings::SolverSettings;
 use crate::solver::state::{Carry, State};
@@ -344,7 +344,7 @@ impl Core {
         mut pose: Pose,
     ) -> Result<bool, SolverError> {
         let cmd = &s.cable_tension_cmd_n;
-        let amax = s.a.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let amax = max_abs(&s.a);
         self.newton.secant = false;
         self.blend_entry = false;
         // Modified Newton (elastic members, no tracking motor): each plain

@@ -3,7 +3,7 @@
 //! least-work multipliers of a state (docs/solver.md, Integration).
 
 use super::core::{Core, Pose};
-use crate::solver::linsolve::{SolveMode, SolverKind};
+use crate::solver::linsolve::{max_abs, SolveMode, SolverKind};
 use crate::solver::model::Model;
 use crate::solver::settings::SolverSettings;
 use crate::solver::SolverError;
@@ -74,8 +74,8 @@ impl Core {
         mode: SolveMode,
     ) -> Result<(), SolverError> {
         self.jac.mul(&self.v, &mut self.r);
-        let amax = self.jac.values.iter().fold(0.0f64, |m, v| m.max(v.abs()));
-        let vmax = self.v.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let amax = max_abs(&self.jac.values);
+        let vmax = max_abs(&self.v);
         self.subtract_correction(model, true, st.velocity_solve_rel * amax * vmax)?;
         // (`c` is scratch until the accelerations that follow recompute it.)
         let Some(kept) = self.solver.kept_rows() else {
@@ -85,9 +85,9 @@ impl Core {
             return Ok(());
         }
         self.jac.mul(&self.v, &mut self.c);
-        let all = self.c.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let all = max_abs(&self.c);
         let on_kept = kept.iter().fold(0.0f64, |m, &i| m.max(self.c[i].abs()));
-        let vmax = self.v.iter().fold(0.0f64, |m, v| m.max(v.abs()));
+        let vmax = max_abs(&self.v);
         if all <= (st.velocity_redo_ratio * on_kept).max(st.velocity_redo_floor_rel * amax * vmax)
             || !self.solver.distinguishes_modes()
         {
