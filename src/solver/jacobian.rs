@@ -26,11 +26,17 @@ pub struct Jacobian {
     /// clones (0: unnamed, compared block by block). Solvers key their
     /// symbolic analysis on it.
     pub structure_id: u64,
-    /// The values as rows of joint triples (the blocks are stored row after
-    /// row): row i's triples are `row_triples[i]..row_triples[i + 1]`, triple
-    /// t is `values[3t..3t + 3]` over the columns from `triple_cols[t]`.
+    /// The rows as the joint triples they touch (`Constraint::row_touches`;
+    /// the blocks are stored row after row, dense): row i's triples are
+    /// `row_triples[i]..row_triples[i + 1]`, triple t is
+    /// `values[triple_val[t]..triple_val[t] + 3]` over the columns from
+    /// `triple_cols[t]`.
     row_triples: Vec<u32>,
     triple_cols: Vec<u32>,
+    triple_val: Vec<u32>,
+    /// Per dense triple of the blocks (values / 3, in storage order): whether
+    /// its row touches that joint (the others hold zeros).
+    touched: Vec<bool>,
 }
 
 static NEXT_STRUCTURE_ID: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(1);
@@ -55,10 +61,20 @@ impl Jacobian {
             offset += rows * 3 * el.joints().len();
             row0 += rows;
         }
+        assert!(offset <= u32::MAX as usize, "Jacobian of {offset} entries");
         let (mut row_triples, mut triple_cols) = (vec![0u32], Vec::with_capacity(offset / 3));
+        let (mut triple_val, mut touched) = (Vec::with_capacity(offset / 3), Vec::new());
         for b in &blocks {
-            for _ in 0..b.rows {
-                triple_cols.extend(b.cols.iter().map(|&c| c as u32));
+            let el = &model.elements[b.element];
+            for r in 0..b.rows {
+                for (jj, &c) in b.cols.iter().enumerate() {
+                    let touches = el.row_touches(locked[b.element], r, jj);
+                    touched.push(touches);
+                    if touches {
+                        triple_cols.push(c as u32);
+                        triple_val.push((b.offset + (r * b.cols.len() + jj) * 3) as u32);
+                    }
+                }
                 row_triples.push(triple_cols.len() as u32);
             }
         }
@@ -70,7 +86,15 @@ impl Jacobian {
             structure_id: NEXT_STRUCTURE_ID.fetch_add(1, std::sync::atomic::Ordering::Relaxed),
             row_triples,
             triple_cols,
+            triple_val,
+            touched,
         }
+    }
+
+    /// Whether row `r` of block `b` touches the block's joint `jj` (its
+    /// entries there are zero at every configuration when not).
+    pub fn touches(&self, b: &Block, r: usize, jj: usize) -> bool {
+        self.touched[b.offset / 3 + r * b.cols.len() + jj]
     }
 
     /// Width of a block's rows (3 per joint).
@@ -86,6 +110,13 @@ impl Jacobian {
             vals.fill(0.0);
             model.elements[b.element].jacobian(x, vals);
         }
+        debug_assert!(
+            self.values
+                .chunks_exact(3)
+                .zip(&self.touched)
+                .all(|(v, &t)| t || v == [0.0; 3]),
+            "an element wrote an entry where its row_touches says none is"
+        );
     }
 
     /// The element of the first block with a non-finite value, and how many
@@ -165,18 +196,25 @@ impl Jacobian {
         if self.nrows == 0 {
             return;
         }
-        let (vals, cols, rows) = (&self.values, &self.triple_cols, &self.row_triples);
+        let (vals, cols, rows, at) = (
+            &self.values,
+            &self.triple_cols,
+            &self.row_triples,
+            &self.triple_val,
+        );
         assert!(out.len() >= self.nrows && v.len() >= self.ncols);
-        assert!(rows.len() == self.nrows + 1 && vals.len() == 3 * cols.len());
+        assert!(rows.len() == self.nrows + 1 && 3 * self.touched.len() == vals.len());
         for (i, o) in out[..self.nrows].iter_mut().enumerate() {
             let mut sum = 0.0;
             for t in rows[i] as usize..rows[i + 1] as usize {
-                // SAFETY: t < cols.len() (row_triples ends at it), 3t + 2 <
-                // vals.len() (asserted), c + 2 < ncols <= v.len() (the
-                // columns of a joint's triple)
+                // SAFETY: t < cols.len() = at.len() (row_triples ends at
+                // it), at[t] + 2 < vals.len() (a triple of the blocks, whose
+                // size is asserted), c + 2 < ncols <= v.len() (the columns
+                // of a joint's triple)
                 unsafe {
                     let c = *cols.get_unchecked(t) as usize;
-                    let a = vals.get_unchecked(3 * t..3 * t + 3);
+                    let p = *at.get_unchecked(t) as usize;
+                    let a = vals.get_unchecked(p..p + 3);
                     let x = v.get_unchecked(c..c + 3);
                     sum += a[0] * x[0] + a[1] * x[1] + a[2] * x[2];
                 }
@@ -187,19 +225,25 @@ impl Jacobian {
 
     /// out = A^T y
     pub fn mul_t(&self, y: &[f64], out: &mut [f64]) {
-        let (vals, cols, rows) = (&self.values, &self.triple_cols, &self.row_triples);
+        let (vals, cols, rows, at) = (
+            &self.values,
+            &self.triple_cols,
+            &self.row_triples,
+            &self.triple_val,
+        );
         assert!(out.len() >= self.ncols && y.len() >= self.nrows);
         out[..self.ncols].fill(0.0);
         if self.nrows == 0 {
             return;
         }
-        assert!(rows.len() == self.nrows + 1 && vals.len() == 3 * cols.len());
+        assert!(rows.len() == self.nrows + 1 && 3 * self.touched.len() == vals.len());
         for (i, &yr) in y[..self.nrows].iter().enumerate() {
             for t in rows[i] as usize..rows[i + 1] as usize {
                 // SAFETY: as in `mul`
                 unsafe {
                     let c = *cols.get_unchecked(t) as usize;
-                    let a = vals.get_unchecked(3 * t..3 * t + 3);
+                    let p = *at.get_unchecked(t) as usize;
+                    let a = vals.get_unchecked(p..p + 3);
                     let o = out.get_unchecked_mut(c..c + 3);
                     o[0] += a[0] * yr;
                     o[1] += a[1] * yr;

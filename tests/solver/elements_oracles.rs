@@ -480,6 +480,19 @@ fn check_jacobian_fd(f: &Fixture, seed: u64) {
                     "{} config {n}: dPhi[{row}]/dX[{coord}] analytic {analytic:.12e} vs FD {fd:.12e} (rel err {err:.3e})",
                     f.label
                 );
+                // a row that says it does not touch the joint has exact
+                // zeros there, and no derivative there either
+                if let Some(c) = column {
+                    if !el.row_touches(true, row, c / 3) {
+                        assert!(
+                            analytic == 0.0 && fd.abs() / scale < FD_TOL,
+                            "{} config {n}: row {row} is said not to touch joint {} but \
+                             dPhi/dX[{coord}] is {analytic:e} (FD {fd:e})",
+                            f.label,
+                            c / 3
+                        );
+                    }
+                }
             }
         }
     }
@@ -1430,4 +1443,24 @@ fn frame_hinge_axis_does_not_turn_with_the_frames_shear() {
     let (dx, dy) = (1.9 - 2.0, 0.8);
     x[9..12].copy_from_slice(&[2.0 + c * dx - s * dy, s * dx + c * dy, 0.2]);
     assert!(residual(el.as_ref(), &x)[0].abs() > 1e-2);
+}
+
+/// The rows that skip joints (checked against finite differences above,
+/// with every other element's rows): a scissor's two rods miss two joints
+/// each, an angulated scissor's six distance rows three and its two planes
+/// one each.
+#[test]
+fn scissor_rows_name_the_joints_they_miss() {
+    for (f, missed) in [
+        (scissor_ratio1_fixture(), 4),
+        (scissor_ratio2_fixture(), 4),
+        (angulated_fixture(), 20),
+    ] {
+        let el = f.build();
+        let n = (0..rows(el.as_ref()))
+            .flat_map(|r| (0..el.joints().len()).map(move |j| (r, j)))
+            .filter(|&(r, j)| !el.row_touches(true, r, j))
+            .count();
+        assert_eq!(n, missed, "{}", f.label);
+    }
 }

@@ -118,6 +118,15 @@ impl Constraint for AngulatedScissor {
         p1.jacobian(x, &mut out[6 * w..7 * w], [3, 0, 6, 9]);
         p2.jacobian(x, &mut out[7 * w..8 * w], [3, 0, 6, 12]);
     }
+    /// A distance row touches its pair of joints; the planes through o, i,
+    /// j touch k (row 6) or l (row 7) besides.
+    fn row_touches(&self, _locked: bool, row: usize, joint: usize) -> bool {
+        match row {
+            0..6 => PAIRS[row].0 == joint || PAIRS[row].1 == joint,
+            6 => joint != 4,
+            _ => joint != 3,
+        }
+    }
     fn adot_xdot(&self, x: &[f64], v: &[f64], out: &mut [f64]) {
         for r in 0..6 {
             out[r] = self.bar(r).adot_xdot(x, v);

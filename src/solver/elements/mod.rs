@@ -191,6 +191,14 @@ pub trait Constraint: Send + Sync + fmt::Debug {
     fn jacobian(&self, x: &[f64], out: &mut [f64]);
     /// (dA_e/dt) Xdot, the velocity-product term of the acceleration constraint.
     fn adot_xdot(&self, x: &[f64], v: &[f64], out: &mut [f64]);
+    /// Whether row `row` (of `rows(locked)`) depends on the element's joint
+    /// `joints()[joint]`: where it does not, its Jacobian entries there are
+    /// zero at every configuration, and the products with A and the
+    /// pattern of S = A M^-1 A^T skip them (a scissor's rod rows touch two of
+    /// its four joints). Every joint by default.
+    fn row_touches(&self, _locked: bool, _row: usize, _joint: usize) -> bool {
+        true
+    }
     /// For lockable elements: the signed gap g(X) whose zero is the latch
     /// condition (sleeve length minus design length, m). `None` if it never locks.
     fn lock_gap(&self, _x: &[f64]) -> Option<f64> {

@@ -124,6 +124,15 @@ impl Constraint for Scissor {
         self.plane()
             .jacobian(x, &mut out[5 * w..6 * w], [0, 3, 6, 9]);
     }
+    /// Rod i-j (row 0) touches i and j, rod k-l (row 1) k and l; the pivot
+    /// and coplanarity rows all four.
+    fn row_touches(&self, _locked: bool, row: usize, joint: usize) -> bool {
+        match row {
+            0 => joint < 2,
+            1 => joint >= 2,
+            _ => true,
+        }
+    }
     fn adot_xdot(&self, x: &[f64], v: &[f64], out: &mut [f64]) {
         let [r1, r2] = self.rods();
         out[0] = r1.adot_xdot(x, v);

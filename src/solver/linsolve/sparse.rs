@@ -2,8 +2,9 @@
 //! of the mass-weighted constraint operator S = A M^-1 A^T, each used as the
 //! preconditioner of conjugate gradients on the exact operator.
 //!
-//! Pattern. S couples two rows exactly when their elements share a joint, so its
-//! pattern follows from the Jacobian's block structure alone. It is built, with a
+//! Pattern. S couples two rows exactly when they touch a common joint
+//! (`Constraint::row_touches`: a scissor's rod row touches two of its four), so
+//! its pattern follows from the Jacobian's structure alone. It is built, with a
 //! flat list of the products that make up every stored entry (an index map), the
 //! first time a block structure is seen and again only when it changes (the locked
 //! set changed); the fill-reducing ordering and the symbolic factorization are
@@ -1058,8 +1059,8 @@ struct Pattern {
 }
 
 impl Pattern {
-    /// S couples two rows exactly when their elements share a joint, so the
-    /// pattern follows from the Jacobian's block structure alone.
+    /// S couples two rows exactly when they touch a common joint, so the
+    /// pattern follows from the Jacobian's structure alone.
     fn new(jac: &Jacobian, rows: &[usize]) -> Result<Pattern, SolverError> {
         const NONE: usize = usize::MAX;
         let mr = rows.len();
@@ -1074,7 +1075,7 @@ impl Pattern {
                 inc[c0 / 3].push((bi, jj));
             }
         }
-        // Every pair of rows (i <= j, both kept) of elements sharing a joint.
+        // Every pair of rows (i <= j, both kept) that touch a common joint.
         let pairs = |f: &mut dyn FnMut(usize, usize, usize, usize, usize)| {
             for (joint, list) in inc.iter().enumerate() {
                 for &(b1, jj1) in list {
@@ -1083,12 +1084,12 @@ impl Pattern {
                         let (w1, w2) = (Jacobian::width(p), Jacobian::width(q));
                         for r1 in 0..p.rows {
                             let i = map[p.row0 + r1];
-                            if i == NONE {
+                            if i == NONE || !jac.touches(p, r1, jj1) {
                                 continue;
                             }
                             for r2 in 0..q.rows {
                                 let j = map[q.row0 + r2];
-                                if j == NONE || i > j {
+                                if j == NONE || i > j || !jac.touches(q, r2, jj2) {
                                     continue;
                                 }
                                 f(
