@@ -61,6 +61,8 @@ impl Jacobian {
             offset += rows * 3 * el.joints().len();
             row0 += rows;
         }
+        // (`Model::build` refuses a model whose Jacobian could pass u32's
+        // range with any locked set: an invariant, not an input check)
         assert!(offset <= u32::MAX as usize, "Jacobian of {offset} entries");
         let (mut row_triples, mut triple_cols) = (vec![0u32], Vec::with_capacity(offset / 3));
         let (mut triple_val, mut touched) = (Vec::with_capacity(offset / 3), Vec::new());

@@ -282,6 +282,17 @@ impl Model {
                 format!("axial_stiffness_n = {axial_stiffness_n} N must be positive and finite"),
             ));
         }
+        if let Some(i) = first_over_jacobian_limit(&elems, u32::MAX as usize) {
+            return Err(err(
+                ModelPart::Element(i),
+                format!(
+                    "the constraint Jacobian passes {} entries at element `{}`: the model is too large \
+                     for the solver's 32-bit indices; split it or use fewer elements",
+                    u32::MAX,
+                    p.elements[i].name
+                ),
+            ));
+        }
         let mut stiffest_compliance_m_per_n = f64::INFINITY;
         let mut buf = Vec::new();
         for e in &elems {
@@ -403,6 +414,22 @@ impl Model {
     }
 }
 
+/// The first element at which the constraint Jacobian, every element with
+/// the larger of its locked and unlocked row counts, holds more than `limit`
+/// entries (rows x 3 x joints summed): `Jacobian::pattern` indexes its
+/// values with u32, so a built model's Jacobian always fits.
+fn first_over_jacobian_limit(elems: &[Box<dyn Constraint>], limit: usize) -> Option<usize> {
+    let mut entries = 0usize;
+    for (i, e) in elems.iter().enumerate() {
+        let rows = e.rows(true).max(e.rows(false));
+        entries = entries.saturating_add(rows.saturating_mul(3 * e.joints().len()));
+        if entries > limit {
+            return Some(i);
+        }
+    }
+    None
+}
+
 /// A model the solver cannot build (`Model::build`): which part, and what is
 /// wrong with it (the model-file layer adds the file and the line).
 #[derive(Clone, Debug, PartialEq)]
@@ -431,3 +458,41 @@ impl std::fmt::Display for ModelError {
 }
 
 impl std::error::Error for ModelError {}
+
+#[cfg(test)]
+mod tests {
+    use super::first_over_jacobian_limit;
+    use crate::model::generate::{self, MastParams};
+    use crate::solver::jacobian::Jacobian;
+
+    /// The limit check counts what `Jacobian::pattern` stores with every
+    /// element locked or unlocked, whichever has more rows, and names the
+    /// element that passes it.
+    #[test]
+    fn the_jacobian_limit_is_passed_where_its_entries_are() {
+        let text = generate::mast(&MastParams::default()).unwrap().to_toml();
+        let m = crate::model::parse(&text, "mast.toml").unwrap().model;
+        let most = |locked: bool| {
+            let jac = Jacobian::pattern(&m, &vec![locked; m.elements.len()]);
+            jac.values.len()
+        };
+        let bound = m
+            .elements
+            .iter()
+            .map(|e| e.rows(true).max(e.rows(false)) * 3 * e.joints().len())
+            .sum::<usize>();
+        assert!(bound >= most(true).max(most(false)));
+        assert_eq!(first_over_jacobian_limit(&m.elements, bound), None);
+        let last = m.elements.len() - 1;
+        let last_entries = {
+            let e = &m.elements[last];
+            e.rows(true).max(e.rows(false)) * 3 * e.joints().len()
+        };
+        assert!(last_entries > 0);
+        assert_eq!(
+            first_over_jacobian_limit(&m.elements, bound - 1),
+            Some(last)
+        );
+        assert_eq!(first_over_jacobian_limit(&m.elements, 0), Some(0));
+    }
+}
