@@ -193,8 +193,13 @@ impl Jacobian {
         }
     }
 
-    /// out = A v
-    pub fn mul(&self, v: &[f64], out: &mut [f64]) {
+    crate::solver::wide::wide_method!(
+        /// out = A v
+        pub fn mul = mul_kernel / mul_avx2 (&self, v: &[f64], out: &mut [f64])
+    );
+
+    #[inline(always)]
+    fn mul_kernel(&self, v: &[f64], out: &mut [f64]) {
         if self.nrows == 0 {
             return;
         }
@@ -225,8 +230,13 @@ impl Jacobian {
         }
     }
 
-    /// out = A^T y
-    pub fn mul_t(&self, y: &[f64], out: &mut [f64]) {
+    crate::solver::wide::wide_method!(
+        /// out = A^T y
+        pub fn mul_t = mul_t_kernel / mul_t_avx2 (&self, y: &[f64], out: &mut [f64])
+    );
+
+    #[inline(always)]
+    fn mul_t_kernel(&self, y: &[f64], out: &mut [f64]) {
         let (vals, cols, rows, at) = (
             &self.values,
             &self.triple_cols,

@@ -21,6 +21,7 @@ pub mod springs;
 pub mod state;
 pub mod stats;
 pub mod vec3;
+pub mod wide;
 
 pub use error::{BackendError, MotorConflict, RequestError, SolverError};
 pub use linsolve::SolverKind;

@@ -25,6 +25,7 @@ mod static_ldlt;
 /// max |a|: f64::max's fold, by eight independent lanes and
 /// compare-and-select so that it vectorizes (the same maximum; NaN is
 /// skipped as f64::max skips it).
+#[inline]
 pub fn max_abs(a: &[f64]) -> f64 {
     const LANES: usize = 8;
     let mut m = [0.0f64; LANES];

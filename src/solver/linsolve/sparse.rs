@@ -715,21 +715,26 @@ impl SparseSchur {
         }
     }
 
-    /// Preconditioned conjugate gradients on S lambda = rhs (rhs in `self.res`
-    /// on entry), with S applied as A M^-1 A^T and the regularized factorization
-    /// as the preconditioner: the preconditioned spectrum s / (s + delta) is 1 up
-    /// to roundoff except for the few ill-conditioned directions, which CG
-    /// resolves in a few more steps. Leaves lambda in `self.lam`,
-    /// g = M^-1 A^T lambda in `self.g`, the final residual rhs - A g in
-    /// `self.res` (rhs kept in `rhs2`), and returns max |residual| / max |rhs|
-    /// and whether the iteration stopped short of its limit `MAX_REFINE`.
-    ///
-    /// `projected`: with P = R^-1 S R^-1 the iterates stay in range(S) even when
-    /// the rhs has a component along null(S) (inconsistent); CG then converges
-    /// to the least-squares, minimum-norm solution. With P = R^-1 such a
-    /// component is amplified by 1 / delta and has to be detected (the true
-    /// residual stays large) and the solve redone.
-    fn pcg(
+    crate::solver::wide::wide_method!(
+        /// Preconditioned conjugate gradients on S lambda = rhs (rhs in `self.res`
+        /// on entry), with S applied as A M^-1 A^T and the regularized factorization
+        /// as the preconditioner: the preconditioned spectrum s / (s + delta) is 1 up
+        /// to roundoff except for the few ill-conditioned directions, which CG
+        /// resolves in a few more steps. Leaves lambda in `self.lam`,
+        /// g = M^-1 A^T lambda in `self.g`, the final residual rhs - A g in
+        /// `self.res` (rhs kept in `rhs2`), and returns max |residual| / max |rhs|
+        /// and whether the iteration stopped short of its limit `MAX_REFINE`.
+        ///
+        /// `projected`: with P = R^-1 S R^-1 the iterates stay in range(S) even when
+        /// the rhs has a component along null(S) (inconsistent); CG then converges
+        /// to the least-squares, minimum-norm solution. With P = R^-1 such a
+        /// component is amplified by 1 / delta and has to be detected (the true
+        /// residual stays large) and the solve redone.
+        fn pcg = pcg_kernel / pcg_avx2 (&mut self, jac: &Jacobian, inv_mass: &[f64], projected: bool, residual_target: f64) -> (f64, bool)
+    );
+
+    #[inline(always)]
+    fn pcg_kernel(
         &mut self,
         jac: &Jacobian,
         inv_mass: &[f64],
@@ -979,14 +984,19 @@ fn all_finite(x: &[f64]) -> bool {
     acc.iter().chain(tail).all(|v| (v * 0.0) == 0.0)
 }
 
-/// Whether `a` is within `tol` of `b` relative to its largest entry:
-/// max |a - b| <= tol max |a| (equal-length slices). With `b_max` = max |b|
-/// and d = max |a - b|, max |a| lies in [b_max - d, b_max + d], which
-/// decides it from d alone but where d sits at the bound: chunk by chunk,
-/// a partial d with d (1 - tol) > tol b_max is already a move beyond it (a
-/// configuration one step on moves its first entries already), and a whole
-/// d with d (1 + tol) <= tol b_max is within it.
-fn within_rel(a: &[f64], b: &[f64], b_max: f64, tol: f64) -> bool {
+crate::solver::wide::wide_fn!(
+    /// Whether `a` is within `tol` of `b` relative to its largest entry:
+    /// max |a - b| <= tol max |a| (equal-length slices). With `b_max` = max |b|
+    /// and d = max |a - b|, max |a| lies in [b_max - d, b_max + d], which
+    /// decides it from d alone but where d sits at the bound: chunk by chunk,
+    /// a partial d with d (1 - tol) > tol b_max is already a move beyond it (a
+    /// configuration one step on moves its first entries already), and a whole
+    /// d with d (1 + tol) <= tol b_max is within it.
+    fn within_rel = within_rel_kernel / within_rel_avx2 (a: &[f64], b: &[f64], b_max: f64, tol: f64) -> bool
+);
+
+#[inline(always)]
+fn within_rel_kernel(a: &[f64], b: &[f64], b_max: f64, tol: f64) -> bool {
     const CHUNK: usize = 8 * LANES;
     let mut d = [0.0f64; LANES];
     let n = a.len().min(b.len()) / LANES * LANES;
@@ -1177,8 +1187,13 @@ impl Pattern {
         Ok(pat)
     }
 
-    /// S_ij = sum over shared joints of A_i M^-1 A_j at the current values.
-    fn fill(&mut self, jac: &Jacobian, inv_mass: &[f64]) -> Result<(), SolverError> {
+    crate::solver::wide::wide_method!(
+        /// S_ij = sum over shared joints of A_i M^-1 A_j at the current values.
+        fn fill = fill_kernel / fill_avx2 (&mut self, jac: &Jacobian, inv_mass: &[f64]) -> Result<(), SolverError>
+    );
+
+    #[inline(always)]
+    fn fill_kernel(&mut self, jac: &Jacobian, inv_mass: &[f64]) -> Result<(), SolverError> {
         let v = &jac.values;
         self.s_vals.fill(0.0);
         // (every product's offsets and columns are below `reach`, its entry
@@ -1200,9 +1215,14 @@ impl Pattern {
         Ok(())
     }
 
-    /// S <- D^-1/2 S D^-1/2 with scale = D^-1/2 (0 for an empty row, whose
-    /// pivot is then 0 and which is rejected).
-    fn scale_to_unit_diagonal(&mut self, scale: &mut [f64]) {
+    crate::solver::wide::wide_method!(
+        /// S <- D^-1/2 S D^-1/2 with scale = D^-1/2 (0 for an empty row, whose
+        /// pivot is then 0 and which is rejected).
+        fn scale_to_unit_diagonal = scale_to_unit_diagonal_kernel / scale_to_unit_diagonal_avx2 (&mut self, scale: &mut [f64])
+    );
+
+    #[inline(always)]
+    fn scale_to_unit_diagonal_kernel(&mut self, scale: &mut [f64]) {
         for (s, &p) in scale.iter_mut().zip(&self.diag_pos) {
             let d = self.s_vals[p];
             *s = if d > 0.0 { 1.0 / d.sqrt() } else { 0.0 };
@@ -1245,6 +1265,7 @@ impl Pattern {
     }
 }
 
+#[inline]
 fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
 }

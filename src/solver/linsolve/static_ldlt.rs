@@ -145,11 +145,21 @@ impl StaticLdlt {
         }
     }
 
-    /// Numeric LDL^T of A with the values `vals` (the caller's storage, in
-    /// `new`'s pattern); a pivot at or below `min_pivot` becomes `floor`
-    /// (roundoff on a matrix positive definite by construction). A
-    /// non-finite pivot is an error.
-    pub fn factor(&mut self, vals: &[f64], min_pivot: f64, floor: f64) -> Result<(), SolverError> {
+    crate::solver::wide::wide_method!(
+        /// Numeric LDL^T of A with the values `vals` (the caller's storage, in
+        /// `new`'s pattern); a pivot at or below `min_pivot` becomes `floor`
+        /// (roundoff on a matrix positive definite by construction). A
+        /// non-finite pivot is an error.
+        pub fn factor = factor_kernel / factor_avx2 (&mut self, vals: &[f64], min_pivot: f64, floor: f64) -> Result<(), SolverError>
+    );
+
+    #[inline(always)]
+    fn factor_kernel(
+        &mut self,
+        vals: &[f64],
+        min_pivot: f64,
+        floor: f64,
+    ) -> Result<(), SolverError> {
         assert_eq!(vals.len(), self.src_pos.len());
         for (&pos, &v) in self.src_pos.iter().zip(vals) {
             self.ax[pos] = v;
@@ -204,8 +214,13 @@ impl StaticLdlt {
         (self.d.iter().zip(&self.perm)).filter_map(move |(&d, &i)| (d >= floor_from).then_some(i))
     }
 
-    /// b <- A^-1 b with the last factorization.
-    pub fn solve(&mut self, b: &mut [f64]) {
+    crate::solver::wide::wide_method!(
+        /// b <- A^-1 b with the last factorization.
+        pub fn solve = solve_kernel / solve_avx2 (&mut self, b: &mut [f64])
+    );
+
+    #[inline(always)]
+    fn solve_kernel(&mut self, b: &mut [f64]) {
         let n = self.d.len();
         assert_eq!(b.len(), n);
         let (x, perm, lp, li, lx, d) = (
