@@ -105,6 +105,12 @@ impl Jacobian {
         3 * b.cols.len()
     }
 
+    /// The most entries an element's block holds: its larger row count,
+    /// locked or unlocked, times 3 per joint (`Model::build`'s size check).
+    pub fn most_entries(el: &dyn super::elements::Constraint) -> usize {
+        el.rows(true).max(el.rows(false)) * 3 * el.joints().len()
+    }
+
     pub fn fill(&mut self, model: &Model, x: &[f64]) {
         for b in &self.blocks {
             let w = Self::width(b);

@@ -3,6 +3,7 @@
 //! environment. What a step changes lives in [`crate::solver::State`].
 
 use super::elements::{self, Constraint, ElementSpec};
+use super::jacobian::Jacobian;
 use super::settings::SolverSettings;
 
 /// Default axial stiffness EA of every member (N) where neither the element nor
@@ -415,14 +416,13 @@ impl Model {
 }
 
 /// The first element at which the constraint Jacobian, every element with
-/// the larger of its locked and unlocked row counts, holds more than `limit`
-/// entries (rows x 3 x joints summed): `Jacobian::pattern` indexes its
-/// values with u32, so a built model's Jacobian always fits.
+/// its most entries (`Jacobian::most_entries`), holds more than `limit`:
+/// `Jacobian::pattern` indexes its values with u32, so a built model's
+/// Jacobian always fits.
 fn first_over_jacobian_limit(elems: &[Box<dyn Constraint>], limit: usize) -> Option<usize> {
     let mut entries = 0usize;
     for (i, e) in elems.iter().enumerate() {
-        let rows = e.rows(true).max(e.rows(false));
-        entries = entries.saturating_add(rows.saturating_mul(3 * e.joints().len()));
+        entries = entries.saturating_add(Jacobian::most_entries(e.as_ref()));
         if entries > limit {
             return Some(i);
         }
@@ -461,9 +461,8 @@ impl std::error::Error for ModelError {}
 
 #[cfg(test)]
 mod tests {
-    use super::first_over_jacobian_limit;
+    use super::{first_over_jacobian_limit, Jacobian};
     use crate::model::generate::{self, MastParams};
-    use crate::solver::jacobian::Jacobian;
 
     /// The limit check counts what `Jacobian::pattern` stores with every
     /// element locked or unlocked, whichever has more rows, and names the
@@ -479,16 +478,12 @@ mod tests {
         let bound = m
             .elements
             .iter()
-            .map(|e| e.rows(true).max(e.rows(false)) * 3 * e.joints().len())
+            .map(|e| Jacobian::most_entries(e.as_ref()))
             .sum::<usize>();
         assert!(bound >= most(true).max(most(false)));
         assert_eq!(first_over_jacobian_limit(&m.elements, bound), None);
         let last = m.elements.len() - 1;
-        let last_entries = {
-            let e = &m.elements[last];
-            e.rows(true).max(e.rows(false)) * 3 * e.joints().len()
-        };
-        assert!(last_entries > 0);
+        assert!(Jacobian::most_entries(m.elements[last].as_ref()) > 0);
         assert_eq!(
             first_over_jacobian_limit(&m.elements, bound - 1),
             Some(last)
