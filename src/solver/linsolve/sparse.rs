@@ -1427,9 +1427,13 @@ impl ConstraintSolver for SparseSchur {
         lambda: &mut [f64],
         refresh: bool,
     ) -> Result<SolveReport, SolverError> {
-        // a0 = M^-1 Q, r = -c - A a0 - (S + D) lambda0; lambda = lambda0 + P r
+        // a0 = M^-1 Q, r = -c - A (a0 + M^-1 A^T lambda0) - D lambda0 (one
+        // product each way); lambda = lambda0 + P r
         self.ensure_structure(jac)?;
-        if !self.unconstrained_part(jac, inv_mass, q, c, a) {
+        for ((a, q), w) in a.iter_mut().zip(q).zip(inv_mass) {
+            *a = q * w;
+        }
+        if jac.nrows == 0 {
             return Ok(SolveReport::DIRECT);
         }
         let cs = &self.compliant;
@@ -1443,12 +1447,12 @@ impl ConstraintSolver for SparseSchur {
         }
         let m = jac.nrows;
         jac.mul_t(&lambda[..m], &mut self.dg);
-        for (h, im) in self.dg.iter_mut().zip(inv_mass) {
-            *h *= im;
+        for ((h, im), a0) in self.dg.iter_mut().zip(inv_mass).zip(a.iter()) {
+            *h = a0 + *h * im;
         }
         jac.mul(&self.dg, &mut self.q);
         for i in 0..m {
-            self.res[i] -= self.q[i] + d[i] * lambda[i];
+            self.res[i] = -c.get(i).copied().unwrap_or(0.0) - self.q[i] - d[i] * lambda[i];
         }
         self.dl.copy_from_slice(&self.res);
         self.compliant.ldlt.solve(&mut self.dl);

@@ -68,6 +68,9 @@ pub(super) struct Core {
     pub row_d: Vec<f64>,
     pub row_phi: Vec<f64>,
     pub row_rate: Vec<f64>,
+    /// Elastic members: (tau / b) V - A_g, the one vector whose product
+    /// with A the index-3 right-hand side takes (scratch, per coordinate).
+    pub coord_rate: Vec<f64>,
     /// The members' relaxation time tau (s, `member_relaxation_s`).
     pub relaxation_s: f64,
     /// Elastic members: strain energy 1/2 sum Phi_i^2 / c_i at the trial's
@@ -116,6 +119,7 @@ impl Core {
             row_d: Vec::new(),
             row_phi: Vec::new(),
             row_rate: Vec::new(),
+            coord_rate: vec![0.0; n],
             relaxation_s: model.solver.member_relaxation_s,
             strain_trial_j: 0.0,
             member_force_trial: vec![0.0; n],

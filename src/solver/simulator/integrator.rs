@@ -82,13 +82,17 @@ impl Core {
             // Index 3: Phi + tau A V + c lambda = 0 at the X, V of A,
             // linearized at the iterate A_g: b A (A - A_g) + Phi + tau A V
             // + c lambda = 0, b = beta h^2 + tau gamma h, so
-            // A A + D lambda = -((Phi + tau A V) / b - A A_g).
+            // A A + D lambda = -((Phi + tau A V) / b - A A_g)
+            //                = -(Phi / b + A ((tau / b) V - A_g)): one product.
             self.jac.residual(model, &self.x, &mut self.row_phi);
-            self.jac.mul(&self.v, &mut self.row_rate);
-            self.jac.mul(&self.a_guess, &mut self.c);
             let (tau, beta) = (self.relaxation_s, self.step_relaxation_beta(h, rule));
-            for i in 0..self.c.len() {
-                self.c[i] = (self.row_phi[i] + tau * self.row_rate[i]) / beta - self.c[i];
+            let k = tau / beta;
+            for ((w, v), g) in self.coord_rate.iter_mut().zip(&self.v).zip(&self.a_guess) {
+                *w = k * v - g;
+            }
+            self.jac.mul(&self.coord_rate, &mut self.c);
+            for (c, phi) in self.c.iter_mut().zip(&self.row_phi) {
+                *c += phi / beta;
             }
         } else {
             self.jac.adot_xdot(model, &self.x, &self.v, &mut self.c);
