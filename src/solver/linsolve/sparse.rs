@@ -405,9 +405,7 @@ impl SparseSchur {
         c: &[f64],
         a: &mut [f64],
     ) -> bool {
-        for ((a, q), w) in a.iter_mut().zip(q).zip(inv_mass) {
-            *a = q * w;
-        }
+        free_accelerations(inv_mass, q, a);
         if jac.nrows == 0 {
             return false;
         }
@@ -1265,6 +1263,13 @@ impl Pattern {
     }
 }
 
+/// a0 = M^-1 Q: the accelerations with no constraint.
+fn free_accelerations(inv_mass: &[f64], q: &[f64], a: &mut [f64]) {
+    for ((a, q), w) in a.iter_mut().zip(q).zip(inv_mass) {
+        *a = q * w;
+    }
+}
+
 #[inline]
 fn dot(a: &[f64], b: &[f64]) -> f64 {
     a.iter().zip(b).map(|(x, y)| x * y).sum()
@@ -1430,9 +1435,7 @@ impl ConstraintSolver for SparseSchur {
         // a0 = M^-1 Q, r = -c - A (a0 + M^-1 A^T lambda0) - D lambda0 (one
         // product each way); lambda = lambda0 + P r
         self.ensure_structure(jac)?;
-        for ((a, q), w) in a.iter_mut().zip(q).zip(inv_mass) {
-            *a = q * w;
-        }
+        free_accelerations(inv_mass, q, a);
         if jac.nrows == 0 {
             return Ok(SolveReport::DIRECT);
         }
