@@ -681,7 +681,9 @@ impl SparseSchur {
                     *x = self.res[i] * s;
                 }
                 slot.ldlt.solve(&mut self.xr);
-                self.dl.fill(0.0);
+                for &i in &pat.others {
+                    self.dl[i] = 0.0;
+                }
                 for ((x, &i), s) in self.xr.iter().zip(&pat.rows).zip(&slot.scale) {
                     self.dl[i] = x * s;
                 }
@@ -696,20 +698,6 @@ impl SparseSchur {
                     slot.ldlt.solve(&mut self.dl);
                 }
             }
-        }
-    }
-
-    /// max |residual| (`self.res`) over the rows the active slot's
-    /// preconditioner solves: the kept rows of a basic one (the rejected rows'
-    /// residual is the rhs's own inconsistency, which no step reduces), every
-    /// row of the regularized one.
-    fn solved_residual(&self, projected: bool) -> f64 {
-        match (&self.reduced, projected) {
-            (Some(pat), false) => pat
-                .rows
-                .iter()
-                .fold(0.0f64, |a, &i| a.max(self.res[i].abs())),
-            _ => max_abs(&self.res),
         }
     }
 
@@ -747,13 +735,13 @@ impl SparseSchur {
             self.last_iterations = 0;
             return (0.0, true);
         }
-        self.lam.fill(0.0);
-        self.g.fill(0.0);
         self.precondition(projected);
         self.p.copy_from_slice(&self.dl);
         let mut rz = dot(&self.res, &self.dl);
         let (mut it, mut dprev, mut gprev) = (0, f64::INFINITY, 0.0f64);
         let mut at_limit = false;
+        // (lambda and g start at 0: the first step writes 0 + alpha p over them)
+        let mut started = false;
         while rz > 0.0 {
             it += 1;
             // h = M^-1 A^T p, q = A h = S p
@@ -776,12 +764,27 @@ impl SparseSchur {
                 it -= 1;
                 break;
             }
-            for i in 0..self.lam.len() {
-                self.lam[i] += alpha * self.p[i];
-                self.res[i] -= alpha * self.q[i];
-            }
-            for (g, h) in self.g.iter_mut().zip(&self.dg) {
-                *g += alpha * h;
+            let mask = match (&self.reduced, projected) {
+                (Some(pat), false) => Some(pat.mask.as_slice()),
+                _ => None,
+            };
+            let solved = cg_update(
+                &mut self.lam,
+                &mut self.res,
+                (&self.p, &self.q),
+                alpha,
+                started,
+                mask,
+            );
+            if started {
+                for (g, h) in self.g.iter_mut().zip(&self.dg) {
+                    *g += alpha * h;
+                }
+            } else {
+                for (g, h) in self.g.iter_mut().zip(&self.dg) {
+                    *g = 0.0 + alpha * h;
+                }
+                started = true;
             }
             let gmax = max_abs(&self.g);
             gprev = gmax;
@@ -791,7 +794,7 @@ impl SparseSchur {
             // updates stagnate at the roundoff floor.
             let rho = dmax / dprev;
             dprev = dmax;
-            if self.solved_residual(projected) <= (BACKWARD_STABLE * rmax).max(residual_target)
+            if solved <= (BACKWARD_STABLE * rmax).max(residual_target)
                 || dmax <= REFINE_TOL * gmax
                 || (it >= 2 && rho < 0.5 && dmax * rho / (1.0 - rho) <= REFINE_TOL * gmax)
                 || (it >= 2 && rho >= 0.5 && dmax <= ROUNDOFF_FLOOR * gmax)
@@ -809,6 +812,10 @@ impl SparseSchur {
             for (p, z) in self.p.iter_mut().zip(&self.dl) {
                 *p = z + beta * *p;
             }
+        }
+        if !started {
+            self.lam.fill(0.0);
+            self.g.fill(0.0);
         }
         self.last_iterations = it;
         // The residual rhs - A g (= rhs - S lambda): CG's own, updated with
@@ -1054,11 +1061,18 @@ const REJECTING: (f64, f64) = (REJECT_DELTA, REJECT_TOL);
 struct Pattern {
     /// The constraint rows this S is over, ascending (S index t = row rows[t]).
     rows: Vec<usize>,
+    /// The Jacobian's other rows (those a rejecting factorization dropped).
+    others: Vec<usize>,
+    /// 1 on `rows`, 0 on `others`: |r_i| * mask_i is |r_i| over the rows
+    /// this S solves and 0 (or NaN, which a max skips) elsewhere.
+    mask: Vec<f64>,
     col_ptr: Vec<usize>,
     row_idx: Vec<usize>,
     s_vals: Vec<f64>,
     diag_pos: Vec<usize>,
     contrib: Vec<Contrib>,
+    /// The products of entry e of S: contrib[entry_contrib[e]..entry_contrib[e + 1]].
+    entry_contrib: Vec<usize>,
     /// The Jacobian values and inverse masses the products reach (lengths).
     reach: (usize, usize),
     /// The LDL^T's symbolic analysis in faer's AMD order (numeric values of
@@ -1117,6 +1131,11 @@ impl Pattern {
         pairs(&mut |i, j, _, _, _| cols[j].push(i));
         let mut pat = Pattern {
             rows: rows.to_vec(),
+            others: (0..jac.nrows).filter(|&i| map[i] == NONE).collect(),
+            mask: map
+                .iter()
+                .map(|&t| if t == NONE { 0.0 } else { 1.0 })
+                .collect(),
             col_ptr: vec![0],
             ..Pattern::default()
         };
@@ -1155,6 +1174,13 @@ impl Pattern {
             (v.max(o), w.max(c.c0 as usize + 3))
         });
         assert!(contrib.iter().all(|c| (c.s as usize) < nnz));
+        pat.entry_contrib = vec![0; nnz + 1];
+        for c in &contrib {
+            pat.entry_contrib[c.s as usize + 1] += 1;
+        }
+        for e in 0..nnz {
+            pat.entry_contrib[e + 1] += pat.entry_contrib[e];
+        }
         pat.contrib = contrib;
         pat.s_vals = vec![0.0; nnz];
         if mr == 0 {
@@ -1193,19 +1219,27 @@ impl Pattern {
     #[inline(always)]
     fn fill_kernel(&mut self, jac: &Jacobian, inv_mass: &[f64]) -> Result<(), SolverError> {
         let v = &jac.values;
-        self.s_vals.fill(0.0);
-        // (every product's offsets and columns are below `reach`, its entry
-        // below s_vals.len(): `Pattern::new`)
+        // (every product's offsets and columns are below `reach`, the
+        // entries' ranges ascend through `contrib`: `Pattern::new`)
         assert!(v.len() >= self.reach.0 && inv_mass.len() >= self.reach.1);
-        for c in &self.contrib {
-            let (o1, o2, c0) = (c.o1 as usize, c.o2 as usize, c.c0 as usize);
+        let ranges = &self.entry_contrib;
+        assert!(
+            ranges.len() == self.s_vals.len() + 1 && ranges.last() == Some(&self.contrib.len())
+        );
+        for (e, out) in self.s_vals.iter_mut().enumerate() {
+            // S_e = 0 + its products in storage order, summed in a register
+            let mut sum = 0.0;
             // SAFETY: in range (asserted above)
             unsafe {
-                let (a, b) = (v.get_unchecked(o1..o1 + 3), v.get_unchecked(o2..o2 + 3));
-                let w = inv_mass.get_unchecked(c0..c0 + 3);
-                *self.s_vals.get_unchecked_mut(c.s as usize) +=
-                    a[0] * b[0] * w[0] + a[1] * b[1] * w[1] + a[2] * b[2] * w[2];
+                let (lo, hi) = (*ranges.get_unchecked(e), *ranges.get_unchecked(e + 1));
+                for c in self.contrib.get_unchecked(lo..hi) {
+                    let (o1, o2, c0) = (c.o1 as usize, c.o2 as usize, c.c0 as usize);
+                    let (a, b) = (v.get_unchecked(o1..o1 + 3), v.get_unchecked(o2..o2 + 3));
+                    let w = inv_mass.get_unchecked(c0..c0 + 3);
+                    sum += a[0] * b[0] * w[0] + a[1] * b[1] * w[1] + a[2] * b[2] * w[2];
+                }
             }
+            *out = sum;
         }
         if !all_finite(&self.s_vals) {
             return Err(SolverError::NonFiniteJacobian);
@@ -1225,9 +1259,18 @@ impl Pattern {
             let d = self.s_vals[p];
             *s = if d > 0.0 { 1.0 / d.sqrt() } else { 0.0 };
         }
-        for j in 0..self.rows.len() {
-            for p in self.col_ptr[j]..self.col_ptr[j + 1] {
-                self.s_vals[p] *= scale[self.row_idx[p]] * scale[j];
+        let n = self.rows.len();
+        assert!(scale.len() == n && self.col_ptr.len() == n + 1);
+        assert!(self.col_ptr[n] == self.s_vals.len() && self.row_idx.len() == self.s_vals.len());
+        for j in 0..n {
+            // SAFETY: col_ptr ascends to s_vals.len() = row_idx.len() and
+            // row_idx holds rows < n = scale.len() (asserted above; `new`)
+            unsafe {
+                let sj = *scale.get_unchecked(j);
+                for p in *self.col_ptr.get_unchecked(j)..*self.col_ptr.get_unchecked(j + 1) {
+                    let si = *scale.get_unchecked(*self.row_idx.get_unchecked(p));
+                    *self.s_vals.get_unchecked_mut(p) *= si * sj;
+                }
             }
         }
     }
@@ -1268,6 +1311,39 @@ fn free_accelerations(inv_mass: &[f64], q: &[f64], a: &mut [f64]) {
     for ((a, q), w) in a.iter_mut().zip(q).zip(inv_mass) {
         *a = q * w;
     }
+}
+
+/// A conjugate-gradient step's update, lambda += alpha p and r -= alpha q
+/// (lambda = 0 + alpha p where `started` is false: lambda's start at 0 is
+/// not stored first), and in the same pass the residual the step leaves on
+/// the rows the preconditioner solves: max |r_i| mask_i with `mask` the
+/// basic factorization's kept rows (a rejected row's residual is the rhs's
+/// own inconsistency, which no step reduces), over every row without one.
+#[inline(always)]
+fn cg_update(
+    lam: &mut [f64],
+    res: &mut [f64],
+    (p, q): (&[f64], &[f64]),
+    alpha: f64,
+    started: bool,
+    mask: Option<&[f64]>,
+) -> f64 {
+    let m = lam.len();
+    assert!(res.len() == m && p.len() == m && q.len() == m);
+    assert!(mask.is_none_or(|k| k.len() == m));
+    let mut acc = [0.0f64; LANES];
+    for i in 0..m {
+        let l = if started { lam[i] } else { 0.0 };
+        lam[i] = l + alpha * p[i];
+        res[i] -= alpha * q[i];
+        let v = match mask {
+            Some(k) => res[i].abs() * k[i],
+            None => res[i].abs(),
+        };
+        let lane = &mut acc[i % LANES];
+        *lane = if v > *lane { v } else { *lane };
+    }
+    acc.iter().fold(0.0f64, |x, v| x.max(*v))
 }
 
 #[inline]
