@@ -112,13 +112,23 @@ const INCONSISTENT: f64 = 1e-11;
 /// ones to the rhs's own (second-order) inconsistency.
 const BASIC_INCONSISTENT: f64 = 1e-6;
 
-/// One product of an entry of S: S[s] += sum_k A[o1 + k] A[o2 + k] / m[c0 + k].
+/// One product of an entry of S: S[s] += sum_k A[o1 + k] A[o2 + k] / m[c0 + k]
+/// (`s` with `Contrib::FIRST` set on the entry's first product, which starts
+/// the sum from 0 instead).
 #[derive(Clone, Copy, Debug)]
 struct Contrib {
     s: u32,
     o1: u32,
     o2: u32,
     c0: u32,
+}
+
+impl Contrib {
+    const FIRST: u32 = 1 << 31;
+
+    fn entry(&self) -> usize {
+        (self.s & !Self::FIRST) as usize
+    }
 }
 
 /// Which factorization a slot holds.
@@ -1071,8 +1081,8 @@ struct Pattern {
     s_vals: Vec<f64>,
     diag_pos: Vec<usize>,
     contrib: Vec<Contrib>,
-    /// The products of entry e of S: contrib[entry_contrib[e]..entry_contrib[e + 1]].
-    entry_contrib: Vec<usize>,
+    /// The entries of S no product reaches (those of a row with no entries).
+    no_products: Vec<usize>,
     /// The Jacobian values and inverse masses the products reach (lengths).
     reach: (usize, usize),
     /// The LDL^T's symbolic analysis in faer's AMD order (numeric values of
@@ -1173,14 +1183,17 @@ impl Pattern {
             let o = c.o1.max(c.o2) as usize + 3;
             (v.max(o), w.max(c.c0 as usize + 3))
         });
-        assert!(contrib.iter().all(|c| (c.s as usize) < nnz));
-        pat.entry_contrib = vec![0; nnz + 1];
-        for c in &contrib {
-            pat.entry_contrib[c.s as usize + 1] += 1;
+        assert!(contrib
+            .iter()
+            .all(|c| (c.s as usize) < nnz && c.s < Contrib::FIRST));
+        let mut has_product = vec![false; nnz];
+        for c in &mut contrib {
+            if !has_product[c.entry()] {
+                has_product[c.entry()] = true;
+                c.s |= Contrib::FIRST;
+            }
         }
-        for e in 0..nnz {
-            pat.entry_contrib[e + 1] += pat.entry_contrib[e];
-        }
+        pat.no_products = (0..nnz).filter(|&e| !has_product[e]).collect();
         pat.contrib = contrib;
         pat.s_vals = vec![0.0; nnz];
         if mr == 0 {
@@ -1219,27 +1232,23 @@ impl Pattern {
     #[inline(always)]
     fn fill_kernel(&mut self, jac: &Jacobian, inv_mass: &[f64]) -> Result<(), SolverError> {
         let v = &jac.values;
-        // (every product's offsets and columns are below `reach`, the
-        // entries' ranges ascend through `contrib`: `Pattern::new`)
+        // (every product's offsets and columns are below `reach`, its entry
+        // below s_vals.len(): `Pattern::new`)
         assert!(v.len() >= self.reach.0 && inv_mass.len() >= self.reach.1);
-        let ranges = &self.entry_contrib;
-        assert!(
-            ranges.len() == self.s_vals.len() + 1 && ranges.last() == Some(&self.contrib.len())
-        );
-        for (e, out) in self.s_vals.iter_mut().enumerate() {
-            // S_e = 0 + its products in storage order, summed in a register
-            let mut sum = 0.0;
+        for &e in &self.no_products {
+            self.s_vals[e] = 0.0;
+        }
+        for c in &self.contrib {
+            let (o1, o2, c0) = (c.o1 as usize, c.o2 as usize, c.c0 as usize);
             // SAFETY: in range (asserted above)
             unsafe {
-                let (lo, hi) = (*ranges.get_unchecked(e), *ranges.get_unchecked(e + 1));
-                for c in self.contrib.get_unchecked(lo..hi) {
-                    let (o1, o2, c0) = (c.o1 as usize, c.o2 as usize, c.c0 as usize);
-                    let (a, b) = (v.get_unchecked(o1..o1 + 3), v.get_unchecked(o2..o2 + 3));
-                    let w = inv_mass.get_unchecked(c0..c0 + 3);
-                    sum += a[0] * b[0] * w[0] + a[1] * b[1] * w[1] + a[2] * b[2] * w[2];
-                }
+                let (a, b) = (v.get_unchecked(o1..o1 + 3), v.get_unchecked(o2..o2 + 3));
+                let w = inv_mass.get_unchecked(c0..c0 + 3);
+                let s = self.s_vals.get_unchecked_mut(c.entry());
+                // (an entry's first product writes 0 + it: no zeroing pass)
+                let before = if c.s & Contrib::FIRST != 0 { 0.0 } else { *s };
+                *s = before + (a[0] * b[0] * w[0] + a[1] * b[1] * w[1] + a[2] * b[2] * w[2]);
             }
-            *out = sum;
         }
         if !all_finite(&self.s_vals) {
             return Err(SolverError::NonFiniteJacobian);
