@@ -38,9 +38,7 @@ use super::jacobian::Jacobian;
 use super::linsolve::{ConstraintSolver, SolveMode, SolverKind};
 use super::model::Model;
 use super::SolverError;
-use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
-use faer::linalg::householder;
-use faer::{Conj, Par};
+use faer::linalg::solvers::SolveLstsq;
 
 /// A backend instance of its own (the stepping solver's kept factorizations,
 /// counters and re-probe schedule are untouched, so the trajectory does not
@@ -185,15 +183,9 @@ impl LeastWork {
     ///
     ///   s = argmin | C^1/2 (lambda_p + N s) |,
     ///
-    /// solved by a QR of G = C^1/2 N (k columns, one per redundant row: its
-    /// conditioning is not squared as in the normal equations or in S_w)
-    /// for its residual, C^1/2 lambda = (I - Q Q^T) C^1/2 lambda_p, rather
-    /// than for s: the residual's sensitivity is cond(G), the solution's
-    /// cond(G)^2 tan(theta) with theta the angle of h = C^1/2 lambda_p to
-    /// the range of G, which least work leaves large (on the flat, fully
-    /// latched 18-sided ring cond(G) = 3.4e6, and the multipliers of rigid
-    /// rows through s moved 1.6e-4 with the roundoff of the solves, through
-    /// the residual 1.1e-7), at eps and eps / 2 for the rigid rows with the Richardson step of
+    /// solved by a QR of C^1/2 N (k columns, one per redundant row: its
+    /// conditioning is not squared as in the normal equations or in S_w),
+    /// at eps and eps / 2 for the rigid rows with the Richardson step of
     /// `split`. Ok(whether exact: the kept rows held their rank and
     /// A^T lambda = f to `least_work_feasible_rel`, or = A^T lambda_p, the
     /// projection of f onto the range of A^T where f has a part off it, as
@@ -282,59 +274,17 @@ impl LeastWork {
                 if (0..k.min(m)).any(|i| r[(i, i)] == 0.0) || m < k {
                     return Ok(false);
                 }
-                // y = (I - Q Q^T) h by the reflections: Q^T h, its first k
-                // entries zeroed, Q of that
-                let mut y =
-                    faer::Mat::<f64>::from_fn(m, 1, |i, _| self.weight[i] * self.lambda_p[i]);
-                let (basis, coeff) = (qr.Q_basis(), qr.Q_coeff());
-                let block = coeff.nrows();
-                let scratch = StackReq::any_of(&[
-                    householder::apply_block_householder_sequence_transpose_on_the_left_in_place_scratch::<f64>(m, block, 1),
-                    householder::apply_block_householder_sequence_on_the_left_in_place_scratch::<f64>(m, block, 1),
-                ]);
-                let mut mem = MemBuffer::new(scratch);
-                let stack = MemStack::new(&mut mem);
-                householder::apply_block_householder_sequence_transpose_on_the_left_in_place_with_conj(
-                    basis, coeff, Conj::No, y.as_mut(), Par::Seq, stack,
-                );
-                for i in 0..k {
-                    y[(i, 0)] = 0.0;
-                }
-                householder::apply_block_householder_sequence_on_the_left_in_place_with_conj(
-                    basis,
-                    coeff,
-                    Conj::No,
-                    y.as_mut(),
-                    Par::Seq,
-                    stack,
-                );
+                let h = faer::Mat::<f64>::from_fn(m, 1, |i, _| self.weight[i] * self.lambda_p[i]);
+                let s = qr.solve_lstsq(&h);
+                let s = nalgebra::DVector::from_fn(k, |i, _| s[(i, 0)]);
                 let target: &mut [f64] = if slot == 0 { lambda_eps } else { lambda };
-                for ((l, yi), w) in target.iter_mut().zip(y.col(0).iter()).zip(&self.weight) {
-                    *l = yi / w;
+                let split = &self.basis * s;
+                for ((l, p), ns) in target.iter_mut().zip(&self.lambda_p).zip(split.iter()) {
+                    *l = p - ns;
                 }
             }
             for (l, le) in lambda.iter_mut().zip(lambda_eps.iter()) {
                 *l = 2.0 * *l - le; // Richardson, as in `split`
-            }
-            // The residual's roundoff, divided by the rigid rows' small
-            // weights, is not all along the self-stresses: A^T lambda back
-            // to A^T lambda_p by one basic correction, delta with A^T delta
-            // = A^T (lambda_p - lambda) (a small right-hand side, solved to
-            // its own precision; lambda_p - lambda itself is the split)
-            jac.mul_t(lambda, &mut self.force);
-            let to = self.force_p.iter().zip(&self.force);
-            for ((d, (fp, g)), im) in self.dx.iter_mut().zip(to).zip(inv_mass) {
-                *d = (fp - g) * im;
-            }
-            jac.mul(&self.dx, &mut self.r);
-            let report =
-                self.solver
-                    .correction(jac, inv_mass, &self.r, 0.0, &mut self.dx, &mut self.mu)?;
-            if !report.converged || report.least_squares {
-                return Ok(false);
-            }
-            for (l, d) in lambda.iter_mut().zip(&self.mu) {
-                *l += d;
             }
         }
         // A^T lambda as f, or as A^T lambda_p where f has a part off the
