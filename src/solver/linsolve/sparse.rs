@@ -786,16 +786,11 @@ impl SparseSchur {
                 started,
                 mask,
             );
-            if started {
-                for (g, h) in self.g.iter_mut().zip(&self.dg) {
-                    *g += alpha * h;
-                }
-            } else {
-                for (g, h) in self.g.iter_mut().zip(&self.dg) {
-                    *g = 0.0 + alpha * h;
-                }
-                started = true;
+            for (g, h) in self.g.iter_mut().zip(&self.dg) {
+                let before = if started { *g } else { 0.0 };
+                *g = before + alpha * h;
             }
+            started = true;
             let gmax = max_abs(&self.g);
             gprev = gmax;
             // Stop when the residual is a backward-stable solve's, when the
