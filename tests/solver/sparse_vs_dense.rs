@@ -89,6 +89,7 @@ fn compare_runs(name: &str, model: impl Fn() -> Model, max_steps: usize, to_depl
     let (ld, ls) = (&d.state().locks, &s.state().locks);
     assert_eq!(ld.len(), ls.len(), "{name}: number of lock events");
     let mut worst_impulse = 0.0f64;
+    let largest_impulse = ld.iter().fold(0.0f64, |m, l| m.max(l.impulse_ns.abs()));
     for (a, b) in ld.iter().zip(ls) {
         assert_eq!(a.element, b.element, "{name}: lock order");
         assert!(
@@ -99,8 +100,14 @@ fn compare_runs(name: &str, model: impl Fn() -> Model, max_steps: usize, to_depl
             b.time_s
         );
         worst_impulse =
-            worst_impulse.max((a.impulse_ns - b.impulse_ns).abs() / a.impulse_ns.max(1e-300));
+            worst_impulse.max((a.impulse_ns - b.impulse_ns).abs() / largest_impulse.max(1e-300));
     }
+    // (the latch impulses follow from the same states and multipliers: as
+    // those, to 1e-6 of the largest)
+    assert!(
+        worst_impulse <= 1e-6,
+        "{name}: lock impulses differ by {worst_impulse:e} of the largest"
+    );
     // Member forces: the least-work multipliers agree (the sparse state's
     // basic ones put a redundant group's whole share on the rows it keeps).
     let n_locks = ld.len();
@@ -126,7 +133,7 @@ fn compare_runs(name: &str, model: impl Fn() -> Model, max_steps: usize, to_depl
     );
     eprintln!(
         "{name}: {steps} steps, max position difference {worst:.2e} m, deploy at {:?} s, \
-         {n_locks} locks, max relative lock-impulse difference {worst_impulse:.1e}, \
+         {n_locks} locks, max lock-impulse difference {worst_impulse:.1e} of the largest, \
          least-work multipliers {lam_err:.1e} (basic: {:.1e}), joint forces {f_err:.1e}",
         d.state().deploy_time_s,
         max_diff(&lam_d, &s.state().lambda) / max_abs(&lam_d).max(1e-300)
